@@ -1,0 +1,194 @@
+// pybind11 bindings: array conversion, GIL release, exception translation.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <CGAL/assertions_behaviour.h>
+#include <CGAL/exceptions.h>
+#include <CGAL/version.h>
+
+#include <cstring>
+#include <string>
+
+#include "rdt.hpp"
+
+namespace py = pybind11;
+using rdmesh::RestrictedDelaunay;
+
+namespace {
+
+using InArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+using IdArray = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>;
+using FlagArray = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>;
+
+// Copies an (n, 3) array while the GIL is held.
+std::vector<double> rows3(const InArray& a, const char* what) {
+  if (a.ndim() != 2 || a.shape(1) != 3)
+    throw std::invalid_argument(std::string(what) + " must have shape (n, 3)");
+  std::vector<double> out(static_cast<std::size_t>(a.size()));
+  if (!out.empty()) std::memcpy(out.data(), a.data(), out.size() * sizeof(double));
+  return out;
+}
+
+template <typename T>
+py::array_t<T> to_numpy(const std::vector<T>& v, std::vector<py::ssize_t> shape) {
+  py::array_t<T> out(shape);
+  if (!v.empty()) std::memcpy(out.mutable_data(), v.data(), v.size() * sizeof(T));
+  return out;
+}
+
+py::tuple facet_pair(const rdmesh::ChangedFacets& f) {
+  const auto k = static_cast<py::ssize_t>(f.tri.size() / 3);
+  return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.seg, {k, 2, 3}));
+}
+
+void silent_handler(const char*, const char*, const char*, int, const char*) {}
+
+}  // namespace
+
+PYBIND11_MODULE(_rdt, m) {
+  m.doc() = "Restricted Delaunay triangulation core of rdmesh (CGAL 3D Delaunay).";
+  m.attr("CGAL_VERSION") = CGAL_STR(CGAL_VERSION);
+  // CGAL still throws on failures; this only stops it writing to stderr.
+  CGAL::set_error_handler(silent_handler);
+  CGAL::set_warning_handler(silent_handler);
+  CGAL::set_error_behaviour(CGAL::THROW_EXCEPTION);
+
+  static py::object cgal_error =
+      py::module_::import("rdmesh._errors").attr("CGALError");
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const CGAL::Failure_exception& e) {
+      PyErr_SetString(cgal_error.ptr(), e.what());
+    }
+  });
+
+  py::class_<RestrictedDelaunay>(m, "RestrictedDelaunay")
+      .def(py::init([](const InArray& centre, double radius) {
+             if (centre.ndim() != 1 || centre.shape(0) != 3)
+               throw std::invalid_argument("centre must have shape (3,)");
+             const double* c = centre.data();
+             return new RestrictedDelaunay({c[0], c[1], c[2]}, radius);
+           }),
+           py::arg("centre"), py::arg("radius"))
+      .def(
+          "insert",
+          [](RestrictedDelaunay& self, const InArray& points) {
+            const std::vector<double> xyz = rows3(points, "points");
+            std::vector<std::int64_t> ids;
+            {
+              py::gil_scoped_release release;
+              ids = self.insert(xyz.data(), xyz.size() / 3);
+            }
+            return to_numpy(ids, {static_cast<py::ssize_t>(ids.size())});
+          },
+          py::arg("points"),
+          "Insert (k, 3) points; returns (k,) vertex ids (existing ids for "
+          "duplicates).")
+      .def(
+          "changed_facets",
+          [](RestrictedDelaunay& self) {
+            rdmesh::ChangedFacets f;
+            {
+              py::gil_scoped_release release;
+              f = self.changed_facets();
+            }
+            return facet_pair(f);
+          },
+          "Facets whose dual changed since the last call: ((k, 3) sorted "
+          "vertex ids, (k, 2, 3) clipped dual segments).")
+      .def(
+          "update_facets",
+          [](RestrictedDelaunay& self, const FlagArray& flags, const InArray& centres) {
+            const std::vector<double> xyz = rows3(centres, "centres");
+            if (flags.ndim() != 1 || flags.shape(0) * 3 != static_cast<py::ssize_t>(xyz.size()))
+              throw std::invalid_argument("flags must have shape (k,) matching centres (k, 3)");
+            std::vector<std::uint8_t> fl(flags.data(), flags.data() + flags.shape(0));
+            py::gil_scoped_release release;
+            self.update_facets(fl.data(), xyz.data(), fl.size());
+          },
+          py::arg("flags"), py::arg("centres"))
+      .def(
+          "facets",
+          [](const RestrictedDelaunay& self, std::uint8_t mask) {
+            rdmesh::FacetList f;
+            {
+              py::gil_scoped_release release;
+              f = self.facets_with(mask);
+            }
+            const auto k = static_cast<py::ssize_t>(f.tri.size() / 3);
+            return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.centre, {k, 3}));
+          },
+          py::arg("mask") = 0,
+          "Restricted facets having every bit of mask: ((k, 3) outward-"
+          "oriented vertex ids, (k, 3) surface centres).")
+      .def(
+          "all_facets",
+          [](const RestrictedDelaunay& self) {
+            rdmesh::ChangedFacets f;
+            {
+              py::gil_scoped_release release;
+              f = self.all_facets();
+            }
+            return facet_pair(f);
+          },
+          "Every facet whose clipped dual meets the ball, as changed_facets.")
+      .def(
+          "is_facet",
+          [](const RestrictedDelaunay& self, const IdArray& tri) {
+            if (tri.ndim() != 2 || tri.shape(1) != 3)
+              throw std::invalid_argument("tri must have shape (k, 3)");
+            std::vector<std::int64_t> t(tri.data(), tri.data() + tri.size());
+            std::vector<std::uint8_t> out;
+            {
+              py::gil_scoped_release release;
+              out = self.is_facet(t.data(), t.size() / 3);
+            }
+            return to_numpy(out, {static_cast<py::ssize_t>(out.size())}).attr("astype")("bool");
+          },
+          py::arg("tri"))
+      .def(
+          "neighbours",
+          [](const RestrictedDelaunay& self, const IdArray& ids) {
+            if (ids.ndim() != 1) throw std::invalid_argument("ids must have shape (k,)");
+            std::vector<std::int64_t> v(ids.data(), ids.data() + ids.size());
+            std::vector<std::int64_t> offsets, adj;
+            {
+              py::gil_scoped_release release;
+              self.neighbours(v.data(), v.size(), offsets, adj);
+            }
+            return py::make_tuple(
+                to_numpy(offsets, {static_cast<py::ssize_t>(offsets.size())}),
+                to_numpy(adj, {static_cast<py::ssize_t>(adj.size())}));
+          },
+          py::arg("ids"), "Delaunay neighbours of samples as CSR (offsets, ids).")
+      .def("samples",
+           [](const RestrictedDelaunay& self) {
+             const std::vector<double> s = self.samples();
+             return to_numpy(s, {static_cast<py::ssize_t>(s.size() / 3), 3});
+           })
+      .def_property_readonly("number_of_samples", &RestrictedDelaunay::number_of_samples)
+      .def_property_readonly("number_of_cells", &RestrictedDelaunay::number_of_cells)
+      .def("check", [](const RestrictedDelaunay& self) {
+        py::gil_scoped_release release;
+        self.check();
+      });
+
+  m.def(
+      "select_independent",
+      [](const InArray& centres, const InArray& radii) {
+        const std::vector<double> c = rows3(centres, "centres");
+        if (radii.ndim() != 1 || radii.shape(0) * 3 != static_cast<py::ssize_t>(c.size()))
+          throw std::invalid_argument("radii must have shape (k,) matching centres (k, 3)");
+        std::vector<double> r(radii.data(), radii.data() + radii.shape(0));
+        std::vector<std::int64_t> out;
+        {
+          py::gil_scoped_release release;
+          out = rdmesh::select_independent(c.data(), r.data(), r.size());
+        }
+        return to_numpy(out, {static_cast<py::ssize_t>(out.size())});
+      },
+      py::arg("centres"), py::arg("radii"),
+      "Indices of a greedy independent set of balls: by decreasing radius, a "
+      "ball is kept unless its centre lies in a kept ball.");
+}

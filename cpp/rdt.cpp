@@ -1,0 +1,415 @@
+#include "rdt.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+
+#include <CGAL/Spatial_sort_traits_adapter_3.h>
+#include <CGAL/hilbert_sort.h>
+#include <CGAL/property_map.h>
+
+namespace rdmesh {
+
+namespace {
+
+using Vec3 = std::array<double, 3>;
+
+bool finite3(const double* p) {
+  return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+}
+
+Vec3 to_vec(const Point& p) { return {p.x(), p.y(), p.z()}; }
+
+bool lex_less(const Vec3& a, const Vec3& b) {
+  return std::lexicographical_compare(a.begin(), a.end(), b.begin(), b.end());
+}
+
+}  // namespace
+
+RestrictedDelaunay::RestrictedDelaunay(const std::array<double, 3>& centre,
+                                       double radius)
+    : c0_(centre), radius_(radius) {
+  if (!finite3(centre.data()) || !std::isfinite(radius) || radius <= 0.0)
+    throw std::invalid_argument(
+        "bounding sphere needs a finite centre and a positive finite radius");
+  // Cube corners at 4R: inside the ball every point is nearer to any sample
+  // than to any dummy, so Vor(P + dummies) = Vor(P) there and no dual is a ray.
+  const double h = 4.0 * radius;
+  for (int k = 0; k < 8; ++k) {
+    Point p(centre[0] + ((k & 1) ? h : -h), centre[1] + ((k & 2) ? h : -h),
+            centre[2] + ((k & 4) ? h : -h));
+    Vertex_handle v = dt_.insert(p);
+    v->info().id = -1;
+    hint_ = v;
+  }
+}
+
+bool RestrictedDelaunay::is_dummy(Vertex_handle v) const {
+  return dt_.is_infinite(v) || v->info().id < 0;
+}
+
+std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
+                                                     std::size_t n) {
+  const double limit2 = 4.0 * radius_ * radius_;
+  std::vector<Point> pts;
+  pts.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double* p = xyz + 3 * k;
+    if (!finite3(p))
+      throw std::invalid_argument("point " + std::to_string(k) +
+                                  " has a non-finite coordinate");
+    const double dx = p[0] - c0_[0], dy = p[1] - c0_[1], dz = p[2] - c0_[2];
+    if (dx * dx + dy * dy + dz * dz > limit2)
+      throw std::invalid_argument("point " + std::to_string(k) +
+                                  " lies outside twice the bounding radius");
+    pts.emplace_back(p[0], p[1], p[2]);
+  }
+  // Cell handles of a pending update die with the insertion.
+  pending_.clear();
+  pending_swapped_.clear();
+
+  std::vector<std::size_t> order(n);
+  for (std::size_t k = 0; k < n; ++k) order[k] = k;
+  using Map = CGAL::Pointer_property_map<Point>::type;
+  using Traits = CGAL::Spatial_sort_traits_adapter_3<K, Map>;
+  // hilbert_sort, unlike spatial_sort, draws no random numbers.
+  CGAL::hilbert_sort(order.begin(), order.end(),
+                     Traits(CGAL::make_property_map(pts)));
+
+  std::vector<std::int64_t> ids(n);
+  for (std::size_t k : order) {
+    Vertex_handle v = dt_.insert(pts[k], hint_);
+    if (v->info().id == -2) {
+      v->info().id = static_cast<std::int64_t>(samples_.size());
+      samples_.push_back(v);
+      last_new_.push_back(v);
+    }
+    ids[k] = v->info().id;
+    hint_ = v;
+  }
+  return ids;
+}
+
+const std::array<double, 3>& RestrictedDelaunay::circumcentre(
+    Cell_handle c) const {
+  CellInfo& info = c->info();
+  if (!info.has_cc) {
+    // Filtered: doubles when certified, exact construction otherwise.
+    static const CGAL::Robust_circumcenter_filtered_traits_3<K> traits;
+    static const auto cc = traits.construct_circumcenter_3_object();
+    info.cc = to_vec(cc(c->vertex(0)->point(), c->vertex(1)->point(),
+                        c->vertex(2)->point(), c->vertex(3)->point()));
+    info.has_cc = true;
+  }
+  return info.cc;
+}
+
+bool RestrictedDelaunay::clip(Vec3& a, Vec3& b) const {
+  const Vec3 d{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  const Vec3 f{a[0] - c0_[0], a[1] - c0_[1], a[2] - c0_[2]};
+  const double A = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+  if (!(A > 0.0)) return false;
+  const double B = f[0] * d[0] + f[1] * d[1] + f[2] * d[2];
+  const double C = f[0] * f[0] + f[1] * f[1] + f[2] * f[2] - radius_ * radius_;
+  const double disc = B * B - A * C;
+  if (!(disc > 0.0)) return false;
+  const double s = std::sqrt(disc);
+  const double lo = std::max(0.0, (-B - s) / A);
+  const double hi = std::min(1.0, (-B + s) / A);
+  if (!(lo < hi)) return false;
+  const Vec3 a0 = a;
+  if (lo > 0.0)
+    for (int k = 0; k < 3; ++k) a[k] = a0[k] + lo * d[k];
+  if (hi < 1.0)
+    for (int k = 0; k < 3; ++k) b[k] = a0[k] + hi * d[k];
+  return true;
+}
+
+ChangedFacets RestrictedDelaunay::changed_facets() {
+  ++round_;
+  pending_.clear();
+  pending_swapped_.clear();
+  std::vector<Cell_handle> fresh, around;
+  for (Vertex_handle v : last_new_) {
+    around.clear();
+    dt_.incident_cells(v, std::back_inserter(around));
+    for (Cell_handle c : around) {
+      CellInfo& info = c->info();
+      if (info.stamp == round_) continue;
+      info.stamp = round_;
+      info.order = static_cast<std::int32_t>(fresh.size());
+      info.flags = {0, 0, 0, 0};
+      fresh.push_back(c);
+    }
+  }
+  last_new_.clear();
+
+  ChangedFacets out;
+  for (Cell_handle c : fresh) {
+    circumcentre(c);
+    for (int i = 0; i < 4; ++i) {
+      Cell_handle nb = c->neighbor(i);
+      const CellInfo& ni = nb->info();
+      if (ni.stamp == round_ && ni.order < c->info().order) continue;
+      const int j = nb->index(c);
+      nb->info().flags[j] = 0;  // the dual moved: old status is stale
+      std::array<std::int64_t, 3> t{};
+      bool skip = dt_.is_infinite(c) || dt_.is_infinite(nb);
+      for (int k = 1; k < 4 && !skip; ++k) {
+        Vertex_handle v = c->vertex((i + k) & 3);
+        if (is_dummy(v)) skip = true;
+        else t[k - 1] = v->info().id;
+      }
+      if (skip) continue;
+      Vec3 a = circumcentre(c), b = circumcentre(nb);
+      // Canonical orientation: the same facet always gives the same segment.
+      const bool swapped = lex_less(b, a);
+      if (swapped) std::swap(a, b);
+      if (!clip(a, b)) continue;
+      std::sort(t.begin(), t.end());
+      out.tri.insert(out.tri.end(), t.begin(), t.end());
+      out.seg.insert(out.seg.end(), a.begin(), a.end());
+      out.seg.insert(out.seg.end(), b.begin(), b.end());
+      pending_.emplace_back(c, i);
+      pending_swapped_.push_back(swapped ? 1 : 0);
+    }
+  }
+  return out;
+}
+
+void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
+                                       const double* centres, std::size_t n) {
+  if (n != pending_.size())
+    throw std::invalid_argument(
+        "update_facets needs one entry per facet of the last changed_facets() "
+        "call (expected " + std::to_string(pending_.size()) + ", got " +
+        std::to_string(n) + "); no insert may come in between");
+  for (std::size_t k = 0; k < n; ++k) {
+    auto [c, i] = pending_[k];
+    Cell_handle nb = c->neighbor(i);
+    const int j = nb->index(c);
+    std::uint8_t f = flags[k] & (RESTRICTED | BAD);
+    if (!(f & RESTRICTED)) f = 0;
+    // Segment runs c -> nb unless it was swapped for canonical order.
+    const bool out_to_nb = (f & RESTRICTED) &&
+                           (((flags[k] & OUTWARD) != 0) != (pending_swapped_[k] != 0));
+    c->info().flags[i] = f | (out_to_nb ? OUTWARD : 0);
+    nb->info().flags[j] = f | ((f & RESTRICTED) && !out_to_nb ? OUTWARD : 0);
+    const double* x = centres + 3 * k;
+    for (int d = 0; d < 3; ++d) {
+      c->info().centre[i][d] = x[d];
+      nb->info().centre[j][d] = x[d];
+    }
+  }
+  pending_.clear();
+  pending_swapped_.clear();
+}
+
+FacetList RestrictedDelaunay::facets_with(std::uint8_t mask) const {
+  FacetList out;
+  const std::uint8_t need = mask | RESTRICTED | OUTWARD;
+  for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
+    const CellInfo& info = c->info();
+    for (int i = 0; i < 4; ++i) {
+      if ((info.flags[i] & need) != need) continue;
+      // The side whose neighbour is outside reports it; the normal points away
+      // from vertex i, i.e. reversed CGAL facet order (which faces vertex i).
+      const int a = CGAL::Triangulation_utils_3::vertex_triple_index(i, 0);
+      const int b = CGAL::Triangulation_utils_3::vertex_triple_index(i, 1);
+      const int d = CGAL::Triangulation_utils_3::vertex_triple_index(i, 2);
+      out.tri.push_back(c->vertex(a)->info().id);
+      out.tri.push_back(c->vertex(d)->info().id);
+      out.tri.push_back(c->vertex(b)->info().id);
+      out.centre.insert(out.centre.end(), info.centre[i].begin(),
+                        info.centre[i].end());
+    }
+  }
+  return out;
+}
+
+std::vector<std::uint8_t> RestrictedDelaunay::is_facet(const std::int64_t* tri,
+                                                       std::size_t n) const {
+  std::vector<std::uint8_t> out(n, 0);
+  const auto m = static_cast<std::int64_t>(samples_.size());
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::int64_t* t = tri + 3 * k;
+    for (int d = 0; d < 3; ++d)
+      if (t[d] < 0 || t[d] >= m)
+        throw std::invalid_argument("vertex id " + std::to_string(t[d]) +
+                                    " out of range");
+    Cell_handle c;
+    int i, j, l;
+    out[k] = dt_.is_facet(samples_[t[0]], samples_[t[1]], samples_[t[2]], c, i,
+                          j, l)
+                 ? 1
+                 : 0;
+  }
+  return out;
+}
+
+void RestrictedDelaunay::neighbours(const std::int64_t* ids, std::size_t n,
+                                    std::vector<std::int64_t>& offsets,
+                                    std::vector<std::int64_t>& adj) const {
+  const auto m = static_cast<std::int64_t>(samples_.size());
+  offsets.assign(1, 0);
+  std::vector<Vertex_handle> around;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (ids[k] < 0 || ids[k] >= m)
+      throw std::invalid_argument("vertex id " + std::to_string(ids[k]) +
+                                  " out of range");
+    around.clear();
+    dt_.finite_adjacent_vertices(samples_[ids[k]], std::back_inserter(around));
+    for (Vertex_handle v : around)
+      if (!is_dummy(v)) adj.push_back(v->info().id);
+    offsets.push_back(static_cast<std::int64_t>(adj.size()));
+  }
+}
+
+std::vector<double> RestrictedDelaunay::samples() const {
+  std::vector<double> out;
+  out.reserve(3 * samples_.size());
+  for (Vertex_handle v : samples_) {
+    const Point& p = v->point();
+    out.push_back(p.x());
+    out.push_back(p.y());
+    out.push_back(p.z());
+  }
+  return out;
+}
+
+ChangedFacets RestrictedDelaunay::all_facets() const {
+  ChangedFacets out;
+  for (auto f = dt_.finite_facets_begin(); f != dt_.finite_facets_end(); ++f) {
+    Cell_handle c = f->first;
+    const int i = f->second;
+    Cell_handle nb = c->neighbor(i);
+    if (dt_.is_infinite(c) || dt_.is_infinite(nb)) continue;
+    std::array<std::int64_t, 3> t{};
+    bool skip = false;
+    for (int k = 1; k < 4 && !skip; ++k) {
+      Vertex_handle v = c->vertex((i + k) & 3);
+      if (is_dummy(v)) skip = true;
+      else t[k - 1] = v->info().id;
+    }
+    if (skip) continue;
+    Vec3 a = circumcentre(c), b = circumcentre(nb);
+    if (lex_less(b, a)) std::swap(a, b);
+    if (!clip(a, b)) continue;
+    std::sort(t.begin(), t.end());
+    out.tri.insert(out.tri.end(), t.begin(), t.end());
+    out.seg.insert(out.seg.end(), a.begin(), a.end());
+    out.seg.insert(out.seg.end(), b.begin(), b.end());
+  }
+  return out;
+}
+
+void RestrictedDelaunay::check() const {
+  if (!dt_.is_valid(false))
+    throw std::runtime_error("the triangulation is not a valid Delaunay "
+                             "triangulation");
+  for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
+    for (int i = 0; i < 4; ++i) {
+      Cell_handle nb = c->neighbor(i);
+      const int j = nb->index(c);
+      const std::uint8_t a = c->info().flags[i], b = nb->info().flags[j];
+      if ((a & (RESTRICTED | BAD)) != (b & (RESTRICTED | BAD)))
+        throw std::runtime_error("facet flags differ between its two sides");
+      if ((a & RESTRICTED) && ((a & OUTWARD) != 0) == ((b & OUTWARD) != 0))
+        throw std::runtime_error(
+            "a restricted facet must face outward on exactly one side");
+    }
+  }
+}
+
+namespace {
+
+struct CellKey {
+  std::int64_t x, y, z;
+  bool operator==(const CellKey& o) const {
+    return x == o.x && y == o.y && z == o.z;
+  }
+};
+
+struct CellKeyHash {
+  std::size_t operator()(const CellKey& k) const {
+    std::uint64_t h = static_cast<std::uint64_t>(k.x) * 0x9E3779B97F4A7C15ULL;
+    h ^= static_cast<std::uint64_t>(k.y) + 0xC2B2AE3D27D4EB4FULL + (h << 6) + (h >> 2);
+    h ^= static_cast<std::uint64_t>(k.z) + 0x165667B19E3779F9ULL + (h << 6) + (h >> 2);
+    return static_cast<std::size_t>(h);
+  }
+};
+
+}  // namespace
+
+std::vector<std::int64_t> select_independent(const double* centres,
+                                             const double* radii,
+                                             std::size_t n) {
+  std::vector<std::int64_t> accepted;
+  if (n == 0) return accepted;
+  double rmin = HUGE_VAL;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!finite3(centres + 3 * k) || !std::isfinite(radii[k]) ||
+        !(radii[k] > 0.0))
+      throw std::invalid_argument("ball " + std::to_string(k) +
+                                  " needs a finite centre and a positive radius");
+    rmin = std::min(rmin, radii[k]);
+  }
+  std::vector<std::size_t> order(n);
+  for (std::size_t k = 0; k < n; ++k) order[k] = k;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    if (radii[a] != radii[b]) return radii[a] > radii[b];
+    const double* p = centres + 3 * a;
+    const double* q = centres + 3 * b;
+    return std::lexicographical_compare(p, p + 3, q, q + 3);
+  });
+  // Accepted balls live on the level whose cell size s >= r, so a centre
+  // inside one of them is at most one cell away: 27 cells per level.
+  using Grid = std::unordered_map<CellKey, std::vector<std::size_t>, CellKeyHash>;
+  std::vector<Grid> levels;
+  std::vector<double> sizes;
+  auto level_of = [&](double r) {
+    int l = 0;
+    double s = rmin;
+    while (s < r) { s *= 2.0; ++l; }
+    while (static_cast<int>(levels.size()) <= l) {
+      sizes.push_back(rmin * std::ldexp(1.0, static_cast<int>(levels.size())));
+      levels.emplace_back();
+    }
+    return l;
+  };
+  auto key_of = [](const double* p, double s) {
+    return CellKey{static_cast<std::int64_t>(std::floor(p[0] / s)),
+                   static_cast<std::int64_t>(std::floor(p[1] / s)),
+                   static_cast<std::int64_t>(std::floor(p[2] / s))};
+  };
+  for (std::size_t k : order) {
+    const double* p = centres + 3 * k;
+    bool free = true;
+    for (std::size_t l = 0; l < levels.size() && free; ++l) {
+      const CellKey base = key_of(p, sizes[l]);
+      for (int dx = -1; dx <= 1 && free; ++dx)
+        for (int dy = -1; dy <= 1 && free; ++dy)
+          for (int dz = -1; dz <= 1 && free; ++dz) {
+            auto it = levels[l].find({base.x + dx, base.y + dy, base.z + dz});
+            if (it == levels[l].end()) continue;
+            for (std::size_t a : it->second) {
+              const double* q = centres + 3 * a;
+              const double ex = p[0] - q[0], ey = p[1] - q[1], ez = p[2] - q[2];
+              if (ex * ex + ey * ey + ez * ez <= radii[a] * radii[a]) {
+                free = false;
+                break;
+              }
+            }
+          }
+    }
+    if (!free) continue;
+    accepted.push_back(static_cast<std::int64_t>(k));
+    const int l = level_of(radii[k]);
+    levels[l][key_of(p, sizes[l])].push_back(k);
+  }
+  return accepted;
+}
+
+}  // namespace rdmesh

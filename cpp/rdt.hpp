@@ -1,0 +1,131 @@
+// Restricted Delaunay bookkeeping over CGAL's Delaunay_triangulation_3.
+//
+// The class keeps the 3D Delaunay triangulation of the samples plus eight far
+// dummy points, so every Voronoi edge that can meet the bounding ball is a
+// finite segment.  Per-facet restricted data (flags, surface centre) lives in
+// the cells, as in CGAL's Surface_mesh_cell_base_3, so it disappears with the
+// cells a batch destroys.  No Python headers here.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <CGAL/Delaunay_triangulation_3.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Robust_weighted_circumcenter_filtered_traits_3.h>
+#include <CGAL/Triangulation_cell_base_with_info_3.h>
+#include <CGAL/Triangulation_data_structure_3.h>
+#include <CGAL/Triangulation_vertex_base_with_info_3.h>
+
+namespace rdmesh {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = K::Point_3;
+
+// Facet flag bits; RESTRICTED, BAD and OUTWARD come from Python.
+enum FacetFlag : std::uint8_t {
+  RESTRICTED = 1,
+  BAD = 2,
+  // Python: outside lies along the reported segment direction.
+  // Stored: outside lies towards this side's neighbour cell.
+  OUTWARD = 4,
+};
+
+struct VertexInfo {
+  std::int64_t id = -2;  // -1 for dummies, >= 0 for samples
+};
+
+struct CellInfo {
+  std::array<double, 3> cc{};                    // cached circumcentre
+  std::array<std::array<double, 3>, 4> centre{}; // surface centre per facet
+  std::array<std::uint8_t, 4> flags{};
+  std::int32_t stamp = -1;  // round in which the cell was reported as new
+  std::int32_t order = -1;  // position in that round's list of new cells
+  bool has_cc = false;
+};
+
+using Vb = CGAL::Triangulation_vertex_base_with_info_3<VertexInfo, K>;
+using Cb = CGAL::Triangulation_cell_base_with_info_3<CellInfo, K>;
+using Tds = CGAL::Triangulation_data_structure_3<Vb, Cb>;
+using Delaunay = CGAL::Delaunay_triangulation_3<K, Tds>;
+using Cell_handle = Delaunay::Cell_handle;
+using Vertex_handle = Delaunay::Vertex_handle;
+
+// Facets whose dual changed in the last batch, with clipped dual segments.
+struct ChangedFacets {
+  std::vector<std::int64_t> tri;  // k*3 sorted vertex ids
+  std::vector<double> seg;        // k*6: start xyz, end xyz (canonical order)
+};
+
+// Restricted facets, oriented outward, with their surface centres.
+struct FacetList {
+  std::vector<std::int64_t> tri;  // k*3
+  std::vector<double> centre;     // k*3
+};
+
+class RestrictedDelaunay {
+ public:
+  RestrictedDelaunay(const std::array<double, 3>& centre, double radius);
+
+  // Insert n points (xyz, row-major); returns one id per point.  A point that
+  // coincides with an existing sample gets that sample's id.
+  std::vector<std::int64_t> insert(const double* xyz, std::size_t n);
+
+  // Facets of the cells created since the previous call whose clipped dual
+  // meets the bounding ball.  Their flags are cleared; set them again with
+  // update_facets (same order, same count) before the next insert.
+  ChangedFacets changed_facets();
+  void update_facets(const std::uint8_t* flags, const double* centres,
+                     std::size_t n);
+
+  // All facets with every bit of `mask` set, each once.
+  FacetList facets_with(std::uint8_t mask) const;
+
+  // Each facet (sorted or not) as three vertex ids: is it a Delaunay facet?
+  std::vector<std::uint8_t> is_facet(const std::int64_t* tri,
+                                     std::size_t n) const;
+
+  // Ids of the samples adjacent (by a Delaunay edge) to each given sample,
+  // as CSR arrays.  Dummies are left out.
+  void neighbours(const std::int64_t* ids, std::size_t n,
+                  std::vector<std::int64_t>& offsets,
+                  std::vector<std::int64_t>& adj) const;
+
+  std::size_t number_of_samples() const { return samples_.size(); }
+  std::size_t number_of_cells() const { return dt_.number_of_finite_cells(); }
+  std::vector<double> samples() const;
+
+  // Every facet whose clipped dual meets the bounding ball (no side effects);
+  // for checking the incremental bookkeeping against a from-scratch pass.
+  ChangedFacets all_facets() const;
+
+  // Checks the Delaunay property and the symmetry of the facet flags;
+  // throws std::runtime_error on failure.
+  void check() const;
+
+ private:
+  const std::array<double, 3>& circumcentre(Cell_handle c) const;
+  bool is_dummy(Vertex_handle v) const;
+  bool clip(std::array<double, 3>& a, std::array<double, 3>& b) const;
+
+  Delaunay dt_;
+  std::array<double, 3> c0_;
+  double radius_;
+  std::vector<Vertex_handle> samples_;
+  std::vector<Vertex_handle> last_new_;
+  std::vector<std::pair<Cell_handle, int>> pending_;
+  std::vector<std::uint8_t> pending_swapped_;
+  std::int32_t round_ = 0;
+  Vertex_handle hint_;
+};
+
+// Greedy independent set of balls (algorithm.md, batching rule): in order of
+// decreasing radius (ties by lexicographic centre) accept a ball unless its
+// centre lies in the closed ball of an already accepted one.  Returns the
+// accepted indices in that order.
+std::vector<std::int64_t> select_independent(const double* centres,
+                                             const double* radii,
+                                             std::size_t n);
+
+}  // namespace rdmesh

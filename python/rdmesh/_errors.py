@@ -1,0 +1,44 @@
+"""Exception types raised by rdmesh."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class RdmeshError(Exception):
+    """Base class of every rdmesh-specific error."""
+
+
+class OracleError(RdmeshError, ValueError):
+    """The surface function misbehaved: it raised, returned the wrong shape,
+    or returned NaN or infinity."""
+
+
+class EmptySurfaceError(RdmeshError, ValueError):
+    """No part of the surface was found inside the bounding sphere."""
+
+
+class BoundingSphereError(RdmeshError, ValueError):
+    """The surface reaches the bounding sphere (or f <= 0 outside the surface)."""
+
+
+class CGALError(RdmeshError, RuntimeError):
+    """CGAL reported a failure inside the C++ core."""
+
+
+class BudgetExceeded(RdmeshError):
+    """Refinement hit a budget (vertices, rounds or time) before it finished.
+
+    Attributes
+    ----------
+    mesh : SurfaceMesh
+        The mesh as it stood when the budget ran out, flagged
+        ``complete=False``. It may not be watertight.
+    reason : str
+        Which budget ran out.
+    """
+
+    def __init__(self, message: str, mesh: Any = None, reason: str = "") -> None:
+        super().__init__(message)
+        self.mesh = mesh
+        self.reason = reason

@@ -1,0 +1,104 @@
+"""The public entry point: :func:`mesh_surface`."""
+
+from __future__ import annotations
+
+import math
+
+from .criteria import FacetCriteria, Sizing
+from .oracles import ImplicitSurface
+from .refine import TOPOLOGIES, Budget, Refiner
+from .result import SurfaceMesh
+
+METHODS = ("boissonnat-oudot",)
+
+
+def mesh_surface(
+    surface: ImplicitSurface,
+    *,
+    angle_bound: float = 30.0,
+    radius_bound: float | Sizing | None = None,
+    distance_bound: float | None = None,
+    topology: str = "manifold",
+    method: str = "boissonnat-oudot",
+    seed: int = 0,
+    max_vertices: int | None = None,
+    time_limit: float | None = None,
+    seed_resolution: int = 64,
+) -> SurfaceMesh:
+    """Mesh an implicit surface by restricted Delaunay refinement.
+
+    Parameters
+    ----------
+    surface : ImplicitSurface
+        The surface ``f = 0`` and a bounding sphere that strictly contains it.
+    angle_bound : float, default 30
+        Smallest triangle angle in degrees, at most 30 (where termination is
+        proved); 0 disables it.
+    radius_bound : float or callable, optional
+        Largest radius of the surface Delaunay balls: a number, or a sizing
+        field mapping ``(N, 3)`` points to ``N`` positive radii. Default: a
+        twentieth of the bounding radius. Below 0.1 times the local feature
+        size the output is homeomorphic to the surface (Boissonnat-Oudot).
+    distance_bound : float, optional
+        Largest distance between a facet's circumcentre and its surface
+        centre (an approximation bound); None disables it.
+    topology : {"manifold", "manifold-with-boundary", "non-manifold"}
+        As CGAL's Manifold_tag, Manifold_with_boundary_tag and
+        Non_manifold_tag: what the final refinement stage repairs.
+    method : {"boissonnat-oudot"}
+        The refinement algorithm.
+    seed : int
+        Seed of every random choice; the same seed gives the same mesh.
+    max_vertices : int, optional
+        Stop when the mesh would exceed this many samples.
+    time_limit : float, optional
+        Stop after about this many seconds.
+    seed_resolution : int, default 64
+        Cells across the bounding ball of the grid scan that finds the
+        components; components thinner than a cell may be missed.
+
+    Returns
+    -------
+    SurfaceMesh
+
+    Raises
+    ------
+    ValueError
+        Invalid criteria, method or topology.
+    rdmesh.OracleError
+        ``f`` raised, returned the wrong shape or a non-finite value.
+    rdmesh.EmptySurfaceError
+        No surface inside the bounding sphere.
+    rdmesh.BoundingSphereError
+        The surface reaches the bounding sphere.
+    rdmesh.BudgetExceeded
+        ``max_vertices`` or ``time_limit`` stopped the run; the partial mesh
+        is attached as ``.mesh`` and flagged ``complete=False``.
+    """
+    if not isinstance(surface, ImplicitSurface):
+        raise ValueError(f"surface must be an rdmesh.ImplicitSurface, got {type(surface).__name__}")
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; use one of {', '.join(METHODS)}")
+    if topology not in TOPOLOGIES:
+        raise ValueError(f"unknown topology {topology!r}; use one of {', '.join(TOPOLOGIES)}")
+    if radius_bound is None:
+        radius_bound = surface.radius / 20.0
+    criteria = FacetCriteria(angle_bound, radius_bound, distance_bound)
+    if max_vertices is not None:
+        if isinstance(max_vertices, bool) or int(max_vertices) != max_vertices or max_vertices < 1:
+            raise ValueError(f"max_vertices must be a positive integer, got {max_vertices!r}")
+        max_vertices = int(max_vertices)
+    if time_limit is not None:
+        t = float(time_limit)
+        if not math.isfinite(t) or t <= 0:
+            raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
+    if isinstance(seed_resolution, bool) or int(seed_resolution) != seed_resolution or not (
+        8 <= seed_resolution <= 512
+    ):
+        raise ValueError(f"seed_resolution must be an integer in [8, 512], got {seed_resolution!r}")
+    try:
+        seed = int(seed)
+    except (TypeError, ValueError):
+        raise ValueError(f"seed must be an integer, got {seed!r}") from None
+    budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
+    return Refiner(surface, criteria, topology, seed, budget, int(seed_resolution)).run()

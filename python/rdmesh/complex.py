@@ -1,0 +1,133 @@
+"""Combinatorics of the restricted complex: edge and vertex status, components.
+
+Vectorised versions of CGAL's Complex_2_in_triangulation_3 queries: an edge is
+boundary (1 facet), regular (2) or singular (3 or more); a vertex is regular
+when its incident facets form one fan.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+
+def _pair_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    return lo.astype(np.int64) * n + hi
+
+
+@dataclass
+class ComplexStatus:
+    """Per-facet flags of non-manifold features.
+
+    Attributes
+    ----------
+    edge_key : (E,) int64 key ``min * n + max`` of each distinct edge.
+    edge_count : (E,) facets per edge.
+    facet_edges : (F, 3) index into ``edge_key`` of each facet's edges.
+    vertex_fans : (n,) number of fans around each vertex (0 where it has no facet).
+    """
+
+    edge_key: np.ndarray
+    edge_count: np.ndarray
+    facet_edges: np.ndarray
+    vertex_fans: np.ndarray
+
+    def bad_edges(self, allow_boundary: bool) -> np.ndarray:
+        """Indices of singular edges, plus boundary ones unless allowed."""
+        bad = self.edge_count >= 3
+        if not allow_boundary:
+            bad |= self.edge_count == 1
+        return np.flatnonzero(bad)
+
+
+def complex_status(faces: np.ndarray, n_vertices: int) -> ComplexStatus:
+    """Edge counts and fan counts of a triangle set.
+
+    Parameters
+    ----------
+    faces : (F, 3) vertex ids.
+    n_vertices : number of vertex ids.
+    """
+    faces = np.asarray(faces, dtype=np.int64)
+    F = len(faces)
+    a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
+    keys = np.concatenate([_pair_keys(a, b, n_vertices), _pair_keys(b, c, n_vertices),
+                           _pair_keys(c, a, n_vertices)])
+    edge_key, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
+    facet_edges = inverse.reshape(3, F).T
+    # Fans: nodes are spokes (v, w) = facet edges seen from v; each facet joins
+    # its two spokes at each corner, so a fan is a connected set of spokes.
+    v = np.concatenate([a, b, c])
+    w1 = np.concatenate([b, c, a])
+    w2 = np.concatenate([c, a, b])
+    s1 = v * n_vertices + w1
+    s2 = v * n_vertices + w2
+    spokes, inv = np.unique(np.concatenate([s1, s2]), return_inverse=True)
+    m = len(spokes)
+    fans = np.zeros(n_vertices, np.int64)
+    if m:
+        g = coo_matrix((np.ones(len(s1)), (inv[: len(s1)], inv[len(s1) :])), shape=(m, m))
+        _, label = connected_components(g, directed=False)
+        owner = spokes // n_vertices
+        pairs = np.unique(np.column_stack([owner, label]), axis=0)
+        fans = np.bincount(pairs[:, 0], minlength=n_vertices)
+    return ComplexStatus(edge_key, counts, facet_edges, fans)
+
+
+def largest_incident(group: np.ndarray, facet: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """For each distinct value of ``group``, the ``facet`` with the largest radius.
+
+    Parameters
+    ----------
+    group : (m,) group id of each incidence.
+    facet : (m,) facet index of each incidence.
+    radius : per-facet radii, indexed by ``facet``.
+    """
+    if group.size == 0:
+        return np.zeros(0, np.int64)
+    order = np.lexsort((radius[facet], group))
+    g = group[order]
+    last = np.r_[g[1:] != g[:-1], True]
+    return np.unique(facet[order][last])
+
+
+def components(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
+    """Connected components of a triangle set (facets sharing a vertex).
+
+    Returns
+    -------
+    count : int
+    face_label : (F,) component of each face, numbered by first face.
+    """
+    faces = np.asarray(faces, dtype=np.int64)
+    F = len(faces)
+    if F == 0:
+        return 0, np.zeros(0, np.int64)
+    rows = np.repeat(np.arange(F), 3)
+    g = coo_matrix((np.ones(3 * F), (rows, faces.ravel() + F)), shape=(F + n_vertices,) * 2)
+    _, label = connected_components(g, directed=False)
+    face_label = label[:F]
+    # Renumber by first appearance for stable output.
+    _, first, inv = np.unique(face_label, return_index=True, return_inverse=True)
+    rank = np.argsort(np.argsort(first))
+    return len(first), rank[inv]
+
+
+def euler_characteristics(faces: np.ndarray, n_vertices: int) -> list[int]:
+    """Euler characteristic V - E + F of each component (in component order)."""
+    count, label = components(faces, n_vertices)
+    if count == 0:
+        return []
+    faces = np.asarray(faces, dtype=np.int64)
+    nf = np.bincount(label, minlength=count)
+    vl = np.unique(np.column_stack([np.repeat(label, 3), faces.ravel()]), axis=0)
+    nv = np.bincount(vl[:, 0], minlength=count)
+    e = np.concatenate([_pair_keys(faces[:, i], faces[:, (i + 1) % 3], n_vertices)
+                        for i in range(3)])
+    el = np.unique(np.column_stack([np.tile(label, 3), e]), axis=0)
+    ne = np.bincount(el[:, 0], minlength=count)
+    return [int(x) for x in nv - ne + nf]

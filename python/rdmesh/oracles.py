@@ -1,0 +1,129 @@
+"""Surface oracles: a vectorised implicit function plus its bounding sphere."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._errors import OracleError
+
+ArrayFunction = Callable[[np.ndarray], np.ndarray]
+
+# Larger arrays are evaluated in pieces so that memory stays bounded.
+_CHUNK = 1 << 22
+
+
+def _check_sphere(bounding_sphere: tuple) -> tuple[np.ndarray, float]:
+    try:
+        centre, radius = bounding_sphere
+    except (TypeError, ValueError):
+        raise ValueError("bounding_sphere must be a pair (centre, radius)") from None
+    c = np.asarray(centre, dtype=float)
+    if c.shape != (3,) or not np.all(np.isfinite(c)):
+        raise ValueError(f"bounding sphere centre must be 3 finite numbers, got {centre!r}")
+    try:
+        r = float(radius)
+    except (TypeError, ValueError):
+        raise ValueError(f"bounding sphere radius must be a number, got {radius!r}") from None
+    if not np.isfinite(r) or r <= 0:
+        raise ValueError(f"bounding sphere radius must be positive and finite, got {radius!r}")
+    return c, r
+
+
+@dataclass
+class ImplicitSurface:
+    """The surface ``f(x, y, z) = 0`` inside a bounding sphere, ``f < 0`` inside.
+
+    Parameters
+    ----------
+    f : callable
+        Maps an ``(N, 3)`` float array of points to ``N`` values. It is always
+        called on large arrays, never point by point.
+    bounding_sphere : (centre, radius)
+        A sphere that strictly contains the surface. ``f`` must be positive on
+        and outside it.
+    gradient : callable, optional
+        Maps ``(N, 3)`` points to ``(N, 3)`` gradients of ``f``. Without it,
+        central finite differences are used.
+    name : str, optional
+        A label for logs and reports.
+
+    Notes
+    -----
+    Every call of ``f`` is checked: it must return ``N`` finite values.
+    ``evaluations`` counts the points evaluated so far.
+    """
+
+    f: ArrayFunction
+    bounding_sphere: tuple
+    gradient: ArrayFunction | None = None
+    name: str = "implicit surface"
+    evaluations: int = field(default=0, init=False)
+
+    def __post_init__(self) -> None:
+        if not callable(self.f):
+            raise ValueError("f must be callable on an (N, 3) array")
+        if self.gradient is not None and not callable(self.gradient):
+            raise ValueError("gradient must be callable or None")
+        self.centre, self.radius = _check_sphere(self.bounding_sphere)
+        self.bounding_sphere = (self.centre, self.radius)
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        """Evaluate ``f`` on ``(N, 3)`` points; returns ``(N,)`` float64."""
+        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        n = len(pts)
+        if n <= _CHUNK:
+            return self._evaluate(pts)
+        return np.concatenate([self._evaluate(pts[i : i + _CHUNK]) for i in range(0, n, _CHUNK)])
+
+    def _evaluate(self, pts: np.ndarray) -> np.ndarray:
+        n = len(pts)
+        self.evaluations += n
+        try:
+            out = self.f(pts)
+        except Exception as exc:  # noqa: BLE001 - user code may raise anything
+            raise OracleError(
+                f"the surface function raised {type(exc).__name__}: {exc}"
+            ) from exc
+        try:
+            values = np.asarray(out, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise OracleError(f"the surface function returned non-numbers: {exc}") from exc
+        if values.shape != (n,):
+            raise OracleError(
+                f"the surface function must return shape ({n},) for {n} points, "
+                f"got {values.shape}"
+            )
+        bad = ~np.isfinite(values)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise OracleError(
+                f"the surface function returned {values[i]} at {pts[i].tolist()} "
+                f"({int(bad.sum())} non-finite values in {n})"
+            )
+        return values
+
+    def grad(self, points: np.ndarray) -> np.ndarray:
+        """Gradient of ``f`` at ``(N, 3)`` points, analytic or by finite differences."""
+        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        n = len(pts)
+        if self.gradient is not None:
+            self.evaluations += n
+            try:
+                g = np.asarray(self.gradient(pts), dtype=np.float64)
+            except Exception as exc:  # noqa: BLE001
+                raise OracleError(
+                    f"the gradient function raised {type(exc).__name__}: {exc}"
+                ) from exc
+            if g.shape != (n, 3) or not np.all(np.isfinite(g)):
+                raise OracleError(
+                    f"the gradient function must return {n} finite rows of 3, got {g.shape}"
+                )
+            return g
+        h = 1e-6 * self.radius
+        steps = np.eye(3) * h
+        probe = np.concatenate([pts[None, :, :] + steps[:, None, :], pts[None, :, :] - steps[:, None, :]])
+        v = self(probe.reshape(-1, 3)).reshape(2, 3, n)
+        return ((v[0] - v[1]) / (2 * h)).T

@@ -1,0 +1,275 @@
+"""The Boissonnat-Oudot refinement driver (algorithm.md, section 2).
+
+Each round: the C++ core reports the facets whose dual changed; their duals
+are searched for crossings (one vectorised pass of ``f``); the criteria mark
+bad facets; the worst candidates that are independent under the batching rule
+(no chosen centre inside another chosen ball) are inserted together, which
+equals a valid sequential run. When no facet is bad, the manifold stage
+refines singular edges, boundary edges, non-manifold vertices and samples
+without facets, as CGAL's Manifold_tag does, plus the isolated-sample rule.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from . import _rdt
+from ._errors import BudgetExceeded
+from .complex import complex_status, largest_incident
+from .criteria import FacetCriteria
+from .facets import evaluate_facets
+from .oracles import ImplicitSurface
+from .result import SurfaceMesh
+from .roots import bucket_samples, line_crossings
+from .seeding import initial_sample
+
+log = logging.getLogger("rdmesh")
+
+RESTRICTED, BAD, OUTWARD = 1, 2, 4
+TOPOLOGIES = ("manifold", "manifold-with-boundary", "non-manifold")
+#: Refinement points closer than this (times the bounding radius) are refused.
+MIN_SPACING = 1e-7
+#: Safety cap on rounds; smooth inputs need tens.
+MAX_ROUNDS = 2000
+
+
+@dataclass
+class Budget:
+    """Limits on a run; None means unlimited."""
+
+    max_vertices: int | None = None
+    time_limit: float | None = None
+    max_rounds: int = MAX_ROUNDS
+
+
+@dataclass
+class _State:
+    rdt: _rdt.RestrictedDelaunay
+    vertices: np.ndarray
+    rounds: int = 0
+    inserted: dict[str, int] = field(default_factory=dict)
+    unresolved: list[np.ndarray] = field(default_factory=list)
+
+
+class Refiner:
+    """One meshing run: owns the triangulation and the refinement loop."""
+
+    def __init__(
+        self,
+        surface: ImplicitSurface,
+        criteria: FacetCriteria,
+        topology: str = "manifold",
+        seed: int = 0,
+        budget: Budget | None = None,
+        seed_resolution: int = 64,
+    ) -> None:
+        if topology not in TOPOLOGIES:
+            raise ValueError(f"unknown topology {topology!r}; use one of {', '.join(TOPOLOGIES)}")
+        self.surface = surface
+        self.criteria = criteria
+        self.topology = topology
+        self.seed = seed
+        self.budget = budget or Budget()
+        self.seed_resolution = seed_resolution
+        self.h_min = MIN_SPACING * surface.radius
+
+    def run(self) -> SurfaceMesh:
+        t0 = time.perf_counter()
+        surface = self.surface
+        evals0 = surface.evaluations
+        rng = np.random.default_rng(self.seed)
+        spacing = self.criteria.radius_bound if isinstance(self.criteria.radius_bound, float) else None
+        seeds = initial_sample(surface, rng, self.seed_resolution, spacing=spacing)
+        st = _State(_rdt.RestrictedDelaunay(surface.centre, surface.radius), np.zeros((0, 3)))
+        self._insert(st, seeds, "seeds")
+        stop = None
+        while True:
+            st.rounds += 1
+            self._update(st)
+            centres, radii, stage = self._candidates(st)
+            if len(centres) == 0:
+                break
+            stop = self._check_budget(st, t0)
+            if stop:
+                break
+            keep = radii > self.h_min
+            if not keep.all():
+                st.unresolved.append(centres[~keep])
+                log.warning("%d %s refinement points closer than %.3g to the mesh were not inserted",
+                            int((~keep).sum()), stage, self.h_min)
+                centres, radii = centres[keep], radii[keep]
+                if len(centres) == 0:
+                    break
+            batch = centres[_rdt.select_independent(centres, radii)]
+            cap = self.budget.max_vertices
+            if cap is not None and len(st.vertices) + len(batch) > cap:
+                batch = batch[: max(0, cap - len(st.vertices))]
+                stop = f"max_vertices={cap} reached"
+                self._insert(st, batch, stage)
+                self._update(st)
+                break
+            self._insert(st, batch, stage)
+            log.debug("round %d: %s stage inserted %d, %d samples",
+                      st.rounds, stage, len(batch), len(st.vertices))
+        mesh = self._mesh(st)
+        mesh.stats.update(
+            seconds=time.perf_counter() - t0,
+            rounds=st.rounds,
+            evaluations=surface.evaluations - evals0,
+            samples=len(st.vertices),
+            inserted=dict(st.inserted),
+            unresolved=len(mesh.unresolved),
+            method="boissonnat-oudot",
+            topology=self.topology,
+        )
+        if stop:
+            mesh.complete = False
+            mesh.stats["stop_reason"] = stop
+            raise BudgetExceeded(f"refinement stopped early: {stop}", mesh=mesh, reason=stop)
+        return mesh
+
+    # -- steps --------------------------------------------------------------
+
+    def _insert(self, st: _State, points: np.ndarray, stage: str) -> None:
+        n0 = len(st.vertices)
+        ids = st.rdt.insert(points)
+        new = ids >= n0
+        grown = np.empty((st.rdt.number_of_samples, 3))
+        grown[:n0] = st.vertices
+        grown[ids[new]] = points[new]
+        st.vertices = grown
+        st.inserted[stage] = st.inserted.get(stage, 0) + int(new.sum())
+
+    def _update(self, st: _State) -> None:
+        """Evaluate the facets whose dual changed and hand the flags to C++."""
+        tri, seg = st.rdt.changed_facets()
+        corners = st.vertices[tri]
+        ev = evaluate_facets(self.surface, corners, seg)
+        r = ev.restricted
+        bad = np.zeros(len(tri), bool)
+        bad[r] = (
+            self.criteria.bad(corners[r], ev.centre[r], ev.radius[r])
+            | (ev.n_cross[r] >= 2)
+            | ev.tangential[r]
+        )
+        flags = (r * RESTRICTED) | (bad * BAD) | ((r & ev.outward) * OUTWARD)
+        st.rdt.update_facets(flags.astype(np.uint8), ev.centre)
+
+    def _candidates(self, st: _State) -> tuple[np.ndarray, np.ndarray, str]:
+        """Refinement points with their ball radii, and the stage they come from."""
+        tri, centres = st.rdt.facets(BAD)
+        if len(tri):
+            return centres, self._radii(st, tri, centres), "facet"
+        if self.topology == "non-manifold":
+            return self._isolated(st, *st.rdt.facets(0))
+        tri, centres = st.rdt.facets(0)
+        radii = self._radii(st, tri, centres)
+        status = complex_status(tri, len(st.vertices))
+        bad_edges = status.bad_edges(allow_boundary=self.topology == "manifold-with-boundary")
+        if bad_edges.size:
+            hit = np.isin(status.facet_edges, bad_edges)
+            f_idx, e_slot = np.nonzero(hit)
+            pick = largest_incident(status.facet_edges[f_idx, e_slot], f_idx, radii)
+            return centres[pick], radii[pick], "edge"
+        bad_v = np.flatnonzero(status.vertex_fans > 1)
+        if bad_v.size:
+            hit = np.isin(tri, bad_v)
+            f_idx, corner = np.nonzero(hit)
+            pick = largest_incident(tri[f_idx, corner], f_idx, radii)
+            return centres[pick], radii[pick], "vertex"
+        return self._isolated(st, tri, centres)
+
+    def _radii(self, st: _State, tri: np.ndarray, centres: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(centres - st.vertices[tri[:, 0]], axis=1)
+
+    def _isolated(self, st: _State, tri: np.ndarray, centres: np.ndarray):
+        """Points far from samples that have no restricted facet (algorithm.md 3.4).
+
+        Shoots from each such sample p along and around -n and +n; the first
+        crossing whose nearest sample is p lies in p's Voronoi cell, so it is
+        the centre of an empty ball of radius |x - p|.
+        """
+        used = np.zeros(len(st.vertices), bool)
+        used[tri.ravel()] = True
+        lonely = np.flatnonzero(~used)
+        if lonely.size == 0:
+            return np.zeros((0, 3)), np.zeros(0), "isolated"
+        p = st.vertices[lonely]
+        n = self.surface.grad(p)
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+        dirs = _shot_directions(n)  # (len(p), D, 3)
+        D = dirs.shape[1]
+        owner = np.repeat(np.arange(len(p)), D)
+        d = dirs.reshape(-1, 3)
+        R = self.surface.radius
+        start = p[owner] + 1e-6 * R * d
+        # Run each shot to the bounding sphere.
+        f = start - self.surface.centre
+        b = np.einsum("ij,ij->i", f, d)
+        c = np.einsum("ij,ij->i", f, f) - R * R
+        length = -b + np.sqrt(np.maximum(b * b - c, 0.0))
+        ok = length > 0
+        rows = np.flatnonzero(ok)
+        buckets = [(rows[r], S) for r, S in bucket_samples(length[rows], np.full(rows.size, 64))]
+        cr = line_crossings(self.surface, start, d, buckets, xatol=1e-9 * R)
+        if cr.segment.size == 0:
+            return np.zeros((0, 3)), np.zeros(0), "isolated"
+        first = np.r_[True, cr.segment[1:] != cr.segment[:-1]]
+        seg, x = cr.segment[first], cr.point[first]
+        _, nearest = cKDTree(st.vertices).query(x)
+        me = lonely[owner[seg]]
+        valid = nearest == me
+        seg, x, me = seg[valid], x[valid], me[valid]
+        r = np.linalg.norm(x - st.vertices[me], axis=1)
+        pick = largest_incident(me, np.arange(len(x)), r)
+        return x[pick], r[pick], "isolated"
+
+    def _check_budget(self, st: _State, t0: float) -> str | None:
+        b = self.budget
+        if st.rounds > b.max_rounds:
+            return f"max_rounds={b.max_rounds} reached"
+        if b.time_limit is not None and time.perf_counter() - t0 > b.time_limit:
+            return f"time_limit={b.time_limit:g}s reached"
+        if b.max_vertices is not None and len(st.vertices) >= b.max_vertices:
+            return f"max_vertices={b.max_vertices} reached"
+        return None
+
+    def _mesh(self, st: _State) -> SurfaceMesh:
+        tri, centres = st.rdt.facets(0)
+        used, faces = np.unique(tri, return_inverse=True)
+        faces = faces.reshape(-1, 3).astype(np.int64)
+        # Deterministic output: each face starts at its smallest id (orientation
+        # kept), faces sorted by ids.
+        shift = np.argmin(faces, axis=1)
+        faces = faces[np.arange(len(faces))[:, None], (shift[:, None] + np.arange(3)) % 3]
+        order = np.lexsort(faces.T[::-1])
+        unresolved = np.concatenate(st.unresolved) if st.unresolved else np.zeros((0, 3))
+        mesh = SurfaceMesh(
+            vertices=st.vertices[used],
+            faces=faces[order],
+            facet_centres=centres[order],
+            unresolved=unresolved,
+        )
+        mesh.stats.update(vertices=len(used), faces=len(faces))
+        return mesh
+
+
+def _shot_directions(n: np.ndarray) -> np.ndarray:
+    """Directions at 0, 30 and 60 degrees around -n and +n, ``(k, 26, 3)``."""
+    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    t1 = np.cross(n, helper)
+    t1 /= np.linalg.norm(t1, axis=1)[:, None]
+    t2 = np.cross(n, t1)
+    out = []
+    for sgn in (-1.0, 1.0):
+        out.append(sgn * n)
+        for tilt in (np.pi / 6, np.pi / 3):
+            for phi in np.arange(6) * np.pi / 3:
+                out.append(sgn * np.cos(tilt) * n
+                           + np.sin(tilt) * (np.cos(phi) * t1 + np.sin(phi) * t2))
+    return np.stack(out, axis=1)

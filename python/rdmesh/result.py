@@ -1,0 +1,127 @@
+"""SurfaceMesh: the output triangle mesh, its statistics and exports."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .complex import complex_status, euler_characteristics
+from .criteria import min_angles
+
+
+@dataclass
+class SurfaceMesh:
+    """A triangle mesh of a surface.
+
+    Attributes
+    ----------
+    vertices : (N, 3) float64
+        Vertex positions; every vertex is a sample on the surface.
+    faces : (M, 3) int64
+        Triangles, oriented outward (normals point towards ``f > 0``).
+    facet_centres : (M, 3) float64
+        Centre of each face's surface Delaunay ball: where its dual Voronoi
+        edge meets the surface. The ball radius is the distance to any vertex.
+    stats : dict
+        Run statistics: ``seconds``, ``rounds``, ``vertices``, ``faces``,
+        ``evaluations`` (points at which ``f`` was evaluated), ``inserted`` per
+        stage, ``unresolved`` and more.
+    complete : bool
+        False when a budget stopped refinement early (see :class:`BudgetExceeded`).
+    unresolved : (k, 3) float64
+        Refinement points that were not inserted because they were closer than
+        the minimum spacing to the mesh; empty for a fully refined mesh.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    facet_centres: np.ndarray
+    stats: dict[str, Any] = field(default_factory=dict)
+    complete: bool = True
+    unresolved: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    @property
+    def ball_radii(self) -> np.ndarray:
+        """Radius of each face's surface Delaunay ball, ``(M,)``."""
+        return np.linalg.norm(self.facet_centres - self.vertices[self.faces[:, 0]], axis=1)
+
+    @property
+    def angles(self) -> np.ndarray:
+        """The smallest angle of each face in degrees, ``(M,)``."""
+        return min_angles(self.vertices[self.faces])
+
+    @property
+    def min_angle(self) -> float:
+        """The smallest angle of the mesh in degrees (nan without faces)."""
+        return float(self.angles.min()) if len(self.faces) else float("nan")
+
+    def is_closed_manifold(self) -> bool:
+        """True when every edge has two faces and every vertex one fan of faces."""
+        if len(self.faces) == 0:
+            return False
+        st = complex_status(self.faces, len(self.vertices))
+        used = np.unique(self.faces)
+        return bool(np.all(st.edge_count == 2) and np.all(st.vertex_fans[used] == 1))
+
+    def topology(self) -> dict[str, Any]:
+        """Components, and Euler characteristic and genus of each.
+
+        Genus ``1 - chi / 2`` assumes closed orientable components, which every
+        closed surface embedded in space is.
+        """
+        chi = euler_characteristics(self.faces, len(self.vertices))
+        return {
+            "components": len(chi),
+            "euler": chi,
+            "genus": [(2 - c) / 2 for c in chi],
+            "closed_manifold": self.is_closed_manifold(),
+        }
+
+    def to_trimesh(self):
+        """The mesh as a :class:`trimesh.Trimesh` (indices kept, no merging)."""
+        import trimesh
+
+        return trimesh.Trimesh(vertices=self.vertices, faces=self.faces, process=False)
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Write the mesh in any format trimesh writes, chosen by the extension.
+
+        Raises
+        ------
+        ValueError
+            If trimesh cannot write that extension.
+        OSError
+            If the file cannot be written.
+        """
+        import trimesh.exchange.export as ex
+
+        path = os.fspath(path)
+        ext = os.path.splitext(path)[1].lower().lstrip(".")
+        if ext not in ex._mesh_exporters:
+            raise ValueError(
+                f"cannot write {path!r}: unknown mesh format {ext!r}; use one of "
+                f"{', '.join(sorted(ex._mesh_exporters))}"
+            )
+        self.to_trimesh().export(path)
+
+    def summary(self) -> str:
+        """A few lines: size, angles, topology, time."""
+        topo = self.topology()
+        genus = ", ".join(f"{g:g}" for g in topo["genus"])
+        lines = [
+            f"vertices {len(self.vertices)}, faces {len(self.faces)}",
+            f"min angle {self.min_angle:.2f} deg",
+            f"components {topo['components']} (genus {genus}), "
+            f"closed manifold: {'yes' if topo['closed_manifold'] else 'no'}",
+            f"time {self.stats.get('seconds', float('nan')):.2f} s, "
+            f"{self.stats.get('rounds', 0)} rounds, "
+            f"{self.stats.get('evaluations', 0)} evaluations of f",
+        ]
+        if not self.complete:
+            lines.append("INCOMPLETE: " + str(self.stats.get("stop_reason", "budget")))
+        if len(self.unresolved):
+            lines.append(f"unresolved refinement points: {len(self.unresolved)}")
+        return "\n".join(lines)
