@@ -41,6 +41,14 @@ py::tuple facet_pair(const rdmesh::ChangedFacets& f) {
   return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.seg, {k, 2, 3}));
 }
 
+py::tuple facet_quad(const rdmesh::ChangedFacets& f) {
+  const auto k = static_cast<py::ssize_t>(f.tri.size() / 3);
+  const auto u = static_cast<py::ssize_t>(f.ends.size() / 3);
+  return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.seg, {k, 2, 3}),
+                        to_numpy(f.end_index, {k, 2}), to_numpy(f.ends, {u, 3}),
+                        to_numpy(f.rho, {k}));
+}
+
 void silent_handler(const char*, const char*, const char*, int, const char*) {}
 
 }  // namespace
@@ -93,10 +101,12 @@ PYBIND11_MODULE(_rdt, m) {
               py::gil_scoped_release release;
               f = self.changed_facets();
             }
-            return facet_pair(f);
+            return facet_quad(f);
           },
           "Facets whose dual changed since the last call: ((k, 3) sorted "
-          "vertex ids, (k, 2, 3) clipped dual segments).")
+          "vertex ids, (k, 2, 3) clipped dual segments, (k, 2) indices of the "
+          "segment ends into (u, 3) distinct end points, (k,) facet "
+          "circumradii).")
       .def(
           "update_facets",
           [](RestrictedDelaunay& self, const FlagArray& flags, const InArray& centres) {
@@ -117,11 +127,13 @@ PYBIND11_MODULE(_rdt, m) {
               f = self.facets_with(mask);
             }
             const auto k = static_cast<py::ssize_t>(f.tri.size() / 3);
-            return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.centre, {k, 3}));
+            return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.centre, {k, 3}),
+                                  to_numpy(f.flags, {k}));
           },
           py::arg("mask") = 0,
-          "Restricted facets having every bit of mask: ((k, 3) outward-"
-          "oriented vertex ids, (k, 3) surface centres).")
+          "Restricted facets having any bit of mask, or all when mask is 0: "
+          "((k, 3) outward-oriented vertex ids, (k, 3) surface centres, (k,) "
+          "flag bits).")
       .def(
           "all_facets",
           [](const RestrictedDelaunay& self) {

@@ -147,6 +147,20 @@ ChangedFacets RestrictedDelaunay::changed_facets() {
   last_new_.clear();
 
   ChangedFacets out;
+  auto cell_end = [&](Cell_handle c) {
+    CellInfo& info = c->info();
+    if (info.end_stamp != round_) {
+      info.end_stamp = round_;
+      info.end_idx = static_cast<std::int64_t>(out.ends.size() / 3);
+      const Vec3& p = circumcentre(c);
+      out.ends.insert(out.ends.end(), p.begin(), p.end());
+    }
+    return info.end_idx;
+  };
+  auto point_end = [&](const Vec3& p) {
+    out.ends.insert(out.ends.end(), p.begin(), p.end());
+    return static_cast<std::int64_t>(out.ends.size() / 3 - 1);
+  };
   for (Cell_handle c : fresh) {
     circumcentre(c);
     for (int i = 0; i < 4; ++i) {
@@ -163,15 +177,25 @@ ChangedFacets RestrictedDelaunay::changed_facets() {
         else t[k - 1] = v->info().id;
       }
       if (skip) continue;
+      Cell_handle ca = c, cb = nb;
       Vec3 a = circumcentre(c), b = circumcentre(nb);
       // Canonical orientation: the same facet always gives the same segment.
       const bool swapped = lex_less(b, a);
-      if (swapped) std::swap(a, b);
+      if (swapped) {
+        std::swap(a, b);
+        std::swap(ca, cb);
+      }
+      const Vec3 a0 = a, b0 = b;
       if (!clip(a, b)) continue;
       std::sort(t.begin(), t.end());
       out.tri.insert(out.tri.end(), t.begin(), t.end());
       out.seg.insert(out.seg.end(), a.begin(), a.end());
       out.seg.insert(out.seg.end(), b.begin(), b.end());
+      out.rho.push_back(std::sqrt(CGAL::squared_radius(
+          c->vertex((i + 1) & 3)->point(), c->vertex((i + 2) & 3)->point(),
+          c->vertex((i + 3) & 3)->point())));
+      out.end_index.push_back(a == a0 ? cell_end(ca) : point_end(a));
+      out.end_index.push_back(b == b0 ? cell_end(cb) : point_end(b));
       pending_.emplace_back(c, i);
       pending_swapped_.push_back(swapped ? 1 : 0);
     }
@@ -190,7 +214,7 @@ void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
     auto [c, i] = pending_[k];
     Cell_handle nb = c->neighbor(i);
     const int j = nb->index(c);
-    std::uint8_t f = flags[k] & (RESTRICTED | BAD);
+    std::uint8_t f = flags[k] & LABELS;
     if (!(f & RESTRICTED)) f = 0;
     // Segment runs c -> nb unless it was swapped for canonical order.
     const bool out_to_nb = (f & RESTRICTED) &&
@@ -209,11 +233,13 @@ void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
 
 FacetList RestrictedDelaunay::facets_with(std::uint8_t mask) const {
   FacetList out;
-  const std::uint8_t need = mask | RESTRICTED | OUTWARD;
+  const std::uint8_t need = RESTRICTED | OUTWARD;
   for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
     const CellInfo& info = c->info();
     for (int i = 0; i < 4; ++i) {
-      if ((info.flags[i] & need) != need) continue;
+      const std::uint8_t fl = info.flags[i];
+      if ((fl & need) != need || (mask != 0 && (fl & mask) == 0)) continue;
+      out.flags.push_back(fl & LABELS);
       // The side whose neighbour is outside reports it; the normal points away
       // from vertex i, i.e. reversed CGAL facet order (which faces vertex i).
       const int a = CGAL::Triangulation_utils_3::vertex_triple_index(i, 0);
@@ -314,7 +340,7 @@ void RestrictedDelaunay::check() const {
       Cell_handle nb = c->neighbor(i);
       const int j = nb->index(c);
       const std::uint8_t a = c->info().flags[i], b = nb->info().flags[j];
-      if ((a & (RESTRICTED | BAD)) != (b & (RESTRICTED | BAD)))
+      if ((a & LABELS) != (b & LABELS))
         throw std::runtime_error("facet flags differ between its two sides");
       if ((a & RESTRICTED) && ((a & OUTWARD) != 0) == ((b & OUTWARD) != 0))
         throw std::runtime_error(

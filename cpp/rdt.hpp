@@ -23,13 +23,16 @@ namespace rdmesh {
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = K::Point_3;
 
-// Facet flag bits; RESTRICTED, BAD and OUTWARD come from Python.
+// Facet flag bits, set by Python.  BAD and TOPO are opaque labels here
+// (Python: fails a criterion / crosses the surface badly).
 enum FacetFlag : std::uint8_t {
   RESTRICTED = 1,
   BAD = 2,
   // Python: outside lies along the reported segment direction.
   // Stored: outside lies towards this side's neighbour cell.
   OUTWARD = 4,
+  TOPO = 8,
+  LABELS = RESTRICTED | BAD | TOPO,
 };
 
 struct VertexInfo {
@@ -42,6 +45,8 @@ struct CellInfo {
   std::array<std::uint8_t, 4> flags{};
   std::int32_t stamp = -1;  // round in which the cell was reported as new
   std::int32_t order = -1;  // position in that round's list of new cells
+  std::int64_t end_idx = -1;    // index into ChangedFacets::ends ...
+  std::int32_t end_stamp = -1;  // ... valid in this round only
   bool has_cc = false;
 };
 
@@ -56,12 +61,18 @@ using Vertex_handle = Delaunay::Vertex_handle;
 struct ChangedFacets {
   std::vector<std::int64_t> tri;  // k*3 sorted vertex ids
   std::vector<double> seg;        // k*6: start xyz, end xyz (canonical order)
+  // Segment ends as indices into `ends` (u*3): a Voronoi vertex shared by
+  // several segments appears once, so f is evaluated there once.
+  std::vector<std::int64_t> end_index;  // k*2
+  std::vector<double> ends;             // u*3
+  std::vector<double> rho;              // k facet circumradii
 };
 
 // Restricted facets, oriented outward, with their surface centres.
 struct FacetList {
-  std::vector<std::int64_t> tri;  // k*3
-  std::vector<double> centre;     // k*3
+  std::vector<std::int64_t> tri;    // k*3
+  std::vector<double> centre;       // k*3
+  std::vector<std::uint8_t> flags;  // k labels (RESTRICTED | BAD | TOPO bits)
 };
 
 class RestrictedDelaunay {
@@ -79,7 +90,8 @@ class RestrictedDelaunay {
   void update_facets(const std::uint8_t* flags, const double* centres,
                      std::size_t n);
 
-  // All facets with every bit of `mask` set, each once.
+  // Restricted facets having any bit of `mask` (all restricted facets when
+  // mask is 0), each once.
   FacetList facets_with(std::uint8_t mask) const;
 
   // Each facet (sorted or not) as three vertex ids: is it a Delaunay facet?

@@ -76,7 +76,9 @@ def mesh_surface(
         is attached as ``.mesh`` and flagged ``complete=False``.
     """
     if not isinstance(surface, ImplicitSurface):
-        raise ValueError(f"surface must be an rdmesh.ImplicitSurface, got {type(surface).__name__}")
+        raise ValueError(
+            f"surface must be an rdmesh.ImplicitSurface, got {type(surface).__name__}"
+        )
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; use one of {', '.join(METHODS)}")
     if topology not in TOPOLOGIES:
@@ -91,11 +93,17 @@ def mesh_surface(
     if time_limit is not None:
         t = float(time_limit)
         if not math.isfinite(t) or t <= 0:
-            raise ValueError(f"time_limit must be a positive number of seconds, got {time_limit!r}")
-    if isinstance(seed_resolution, bool) or int(seed_resolution) != seed_resolution or not (
-        8 <= seed_resolution <= 512
+            raise ValueError(
+                f"time_limit must be a positive number of seconds, got {time_limit!r}"
+            )
+    if (
+        isinstance(seed_resolution, bool)
+        or int(seed_resolution) != seed_resolution
+        or not (8 <= seed_resolution <= 256)
     ):
-        raise ValueError(f"seed_resolution must be an integer in [8, 512], got {seed_resolution!r}")
+        raise ValueError(
+            f"seed_resolution must be an integer in [8, 256], got {seed_resolution!r}"
+        )
     try:
         seed = int(seed)
     except (TypeError, ValueError):

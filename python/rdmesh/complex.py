@@ -55,8 +55,9 @@ def complex_status(faces: np.ndarray, n_vertices: int) -> ComplexStatus:
     faces = np.asarray(faces, dtype=np.int64)
     F = len(faces)
     a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
-    keys = np.concatenate([_pair_keys(a, b, n_vertices), _pair_keys(b, c, n_vertices),
-                           _pair_keys(c, a, n_vertices)])
+    keys = np.concatenate(
+        [_pair_keys(a, b, n_vertices), _pair_keys(b, c, n_vertices), _pair_keys(c, a, n_vertices)]
+    )
     edge_key, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
     facet_edges = inverse.reshape(3, F).T
     # Fans: nodes are spokes (v, w) = facet edges seen from v; each facet joins
@@ -126,8 +127,9 @@ def euler_characteristics(faces: np.ndarray, n_vertices: int) -> list[int]:
     nf = np.bincount(label, minlength=count)
     vl = np.unique(np.column_stack([np.repeat(label, 3), faces.ravel()]), axis=0)
     nv = np.bincount(vl[:, 0], minlength=count)
-    e = np.concatenate([_pair_keys(faces[:, i], faces[:, (i + 1) % 3], n_vertices)
-                        for i in range(3)])
+    e = np.concatenate(
+        [_pair_keys(faces[:, i], faces[:, (i + 1) % 3], n_vertices) for i in range(3)]
+    )
     el = np.unique(np.column_stack([np.tile(label, 3), e]), axis=0)
     ne = np.bincount(el[:, 0], minlength=count)
     return [int(x) for x in nv - ne + nf]

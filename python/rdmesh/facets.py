@@ -13,12 +13,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .criteria import circumradii
 from .oracles import ImplicitSurface
 from .roots import bucket_samples, line_crossings
 
-#: Samples per unit of asinh(distance / circumradius): spacing about r / 2.
-SAMPLES_PER_RADIUS = 2.0
+#: Samples per unit of asinh(distance / circumradius): spacing about r.
+SAMPLES_PER_RADIUS = 1.0
 #: A crossing whose direction makes |cos| below this with the gradient is tangential.
 TANGENCY_COS = 1e-3
 #: Root tolerance relative to the smallest facet circumradius of the call.
@@ -41,15 +40,24 @@ class FacetEval:
 
 
 def evaluate_facets(
-    surface: ImplicitSurface, corners: np.ndarray, seg: np.ndarray
+    surface: ImplicitSurface,
+    apex: np.ndarray,
+    seg: np.ndarray,
+    rho: np.ndarray,
+    end_index: np.ndarray | None = None,
+    ends: np.ndarray | None = None,
 ) -> FacetEval:
     """Find the crossings of each facet's dual segment.
 
     Parameters
     ----------
     surface : ImplicitSurface
-    corners : (k, 3, 3) facet vertex coordinates.
+    apex : (k, 3) one vertex of each facet.
     seg : (k, 2, 3) dual segments (clipped to the bounding sphere).
+    rho : (k,) facet circumradii.
+    end_index, ends : (k, 2) int and (u, 3) float, optional
+        Segment ends as indices into distinct points, so that ``f`` is
+        evaluated once per Voronoi vertex.
 
     Returns
     -------
@@ -61,42 +69,40 @@ def evaluate_facets(
     )
     if k == 0:
         return out
-    apex = corners[:, 0]
-    d = seg[:, 1] - seg[:, 0]
-    length = np.linalg.norm(d, axis=1)
-    ok = length > 0
-    u = np.zeros_like(d)
-    u[ok] = d[ok] / length[ok, None]
-    rho = circumradii(corners)
+    start = seg[:, 0]
+    d = seg[:, 1] - start
+    length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    u = d / np.where(length > 0, length, 1.0)[:, None]
     rho = np.where(np.isfinite(rho) & (rho > 0), rho, np.maximum(length, 1e-300))
     # Distance along the line from the facet's circumcentre (the closest point
-    # to its vertices); ball radius is sqrt(rho^2 + sigma^2), so sample evenly
-    # in asinh(sigma / rho): steps of about half the local ball radius.
-    sigma0 = np.einsum("ij,ij->i", u, seg[:, 0] - apex)
+    # to its vertices); the ball radius there is sqrt(rho^2 + sigma^2), so
+    # sampling evenly in asinh(sigma / rho) spaces samples by the ball radius.
+    sigma0 = np.einsum("ij,ij->i", u, start - apex)
     w0 = np.arcsinh(sigma0 / rho)
     w1 = np.arcsinh((sigma0 + length) / rho)
     n = np.ceil((w1 - w0) * SAMPLES_PER_RADIUS).astype(np.int64)
+    n[length == 0] = 0
 
     def warp(rows, frac):
         w = w0[rows, None] + frac * (w1 - w0)[rows, None]
         return rho[rows, None] * np.sinh(w) - sigma0[rows, None]
 
-    rows_ok = np.flatnonzero(ok)
-    buckets = [
-        (rows_ok[r], S)
-        for r, S in bucket_samples(length[rows_ok], n[rows_ok], warp=_subset(warp, rows_ok))
-    ]
-    xatol = ROOT_RTOL * float(np.min(rho[rows_ok])) if rows_ok.size else 0.0
-    cr = line_crossings(surface, seg[:, 0], u, buckets, xatol)
+    order, buckets = bucket_samples(length, n, warp=warp)
+    end_values = None
+    if end_index is not None and ends is not None and len(ends):
+        end_values = surface(ends)[end_index[order]]
+    xatol = ROOT_RTOL * float(np.min(rho))
+    cr = line_crossings(surface, start[order], u[order], buckets, xatol, end_values)
     if cr.segment.size == 0:
         return out
-    out.n_cross = cr.count(k)
+    segment = order[cr.segment]
+    out.n_cross = np.bincount(segment, minlength=k)
     # Representative crossing: largest |sigma|, i.e. the largest ball.
-    far = np.abs(sigma0[cr.segment] + cr.s)
-    order = np.lexsort((far, cr.segment))
-    last = np.r_[cr.segment[order][1:] != cr.segment[order][:-1], True]
-    pick = order[last]
-    rows = cr.segment[pick]
+    far = np.abs(sigma0[segment] + cr.s)
+    pick_order = np.lexsort((far, segment))
+    last = np.r_[segment[pick_order][1:] != segment[pick_order][:-1], True]
+    pick = pick_order[last]
+    rows = segment[pick]
     out.centre[rows] = cr.point[pick]
     out.radius[rows] = np.linalg.norm(cr.point[pick] - apex[rows], axis=1)
     out.outward[rows] = cr.rising[pick]
@@ -105,8 +111,3 @@ def evaluate_facets(
     cos = np.abs(np.einsum("ij,ij->i", g, u[rows])) / np.where(gn > 0, gn, 1.0)
     out.tangential[rows] = (gn == 0) | (cos < TANGENCY_COS)
     return out
-
-
-def _subset(warp, rows_ok):
-    """Adapt ``warp`` (indexed by facet) to rows of the ``rows_ok`` subset."""
-    return lambda rows, frac: warp(rows_ok[rows], frac)

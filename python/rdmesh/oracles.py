@@ -84,17 +84,14 @@ class ImplicitSurface:
         try:
             out = self.f(pts)
         except Exception as exc:  # noqa: BLE001 - user code may raise anything
-            raise OracleError(
-                f"the surface function raised {type(exc).__name__}: {exc}"
-            ) from exc
+            raise OracleError(f"the surface function raised {type(exc).__name__}: {exc}") from exc
         try:
             values = np.asarray(out, dtype=np.float64)
         except (TypeError, ValueError) as exc:
             raise OracleError(f"the surface function returned non-numbers: {exc}") from exc
         if values.shape != (n,):
             raise OracleError(
-                f"the surface function must return shape ({n},) for {n} points, "
-                f"got {values.shape}"
+                f"the surface function must return shape ({n},) for {n} points, got {values.shape}"
             )
         bad = ~np.isfinite(values)
         if bad.any():
@@ -124,6 +121,8 @@ class ImplicitSurface:
             return g
         h = 1e-6 * self.radius
         steps = np.eye(3) * h
-        probe = np.concatenate([pts[None, :, :] + steps[:, None, :], pts[None, :, :] - steps[:, None, :]])
+        probe = np.concatenate(
+            [pts[None, :, :] + steps[:, None, :], pts[None, :, :] - steps[:, None, :]]
+        )
         v = self(probe.reshape(-1, 3)).reshape(2, 3, n)
         return ((v[0] - v[1]) / (2 * h)).T

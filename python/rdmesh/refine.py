@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,10 +31,12 @@ from .seeding import initial_sample
 
 log = logging.getLogger("rdmesh")
 
-RESTRICTED, BAD, OUTWARD = 1, 2, 4
+RESTRICTED, BAD, OUTWARD, TOPO = 1, 2, 4, 8
 TOPOLOGIES = ("manifold", "manifold-with-boundary", "non-manifold")
 #: Refinement points closer than this (times the bounding radius) are refused.
 MIN_SPACING = 1e-7
+#: Points driven only by topology are refused below this fraction of the size bound.
+TOPOLOGY_FLOOR = 0.01
 #: Safety cap on rounds; smooth inputs need tens.
 MAX_ROUNDS = 2000
 
@@ -52,7 +55,9 @@ class _State:
     rdt: _rdt.RestrictedDelaunay
     vertices: np.ndarray
     rounds: int = 0
+    changed: int = 0
     inserted: dict[str, int] = field(default_factory=dict)
+    timing: dict[str, float] = field(default_factory=dict)
     unresolved: list[np.ndarray] = field(default_factory=list)
 
 
@@ -83,46 +88,57 @@ class Refiner:
         surface = self.surface
         evals0 = surface.evaluations
         rng = np.random.default_rng(self.seed)
-        spacing = self.criteria.radius_bound if isinstance(self.criteria.radius_bound, float) else None
-        seeds = initial_sample(surface, rng, self.seed_resolution, spacing=spacing)
+        spacing = (
+            self.criteria.radius_bound if isinstance(self.criteria.radius_bound, float) else None
+        )
         st = _State(_rdt.RestrictedDelaunay(surface.centre, surface.radius), np.zeros((0, 3)))
-        self._insert(st, seeds, "seeds")
+        with _timed(st, "seeding"):
+            seeds = initial_sample(surface, rng, self.seed_resolution, spacing=spacing)
         stop = None
-        while True:
+        cap = self.budget.max_vertices
+        if cap is not None and len(seeds) > cap:
+            seeds, stop = seeds[:cap], f"max_vertices={cap} reached"
+        self._insert(st, seeds, "seeds")
+        while stop is None:
             st.rounds += 1
             self._update(st)
-            centres, radii, stage = self._candidates(st)
+            with _timed(st, "candidates"):
+                centres, radii, stage = self._candidates(st)
             if len(centres) == 0:
                 break
             stop = self._check_budget(st, t0)
             if stop:
                 break
-            keep = radii > self.h_min
-            if not keep.all():
-                st.unresolved.append(centres[~keep])
-                log.warning("%d %s refinement points closer than %.3g to the mesh were not inserted",
-                            int((~keep).sum()), stage, self.h_min)
-                centres, radii = centres[keep], radii[keep]
-                if len(centres) == 0:
-                    break
-            batch = centres[_rdt.select_independent(centres, radii)]
-            cap = self.budget.max_vertices
+            with _timed(st, "select"):
+                batch = centres[_rdt.select_independent(centres, radii)]
             if cap is not None and len(st.vertices) + len(batch) > cap:
                 batch = batch[: max(0, cap - len(st.vertices))]
                 stop = f"max_vertices={cap} reached"
-                self._insert(st, batch, stage)
-                self._update(st)
-                break
             self._insert(st, batch, stage)
-            log.debug("round %d: %s stage inserted %d, %d samples",
-                      st.rounds, stage, len(batch), len(st.vertices))
+            log.debug(
+                "round %d: %s stage inserted %d, %d samples",
+                st.rounds,
+                stage,
+                len(batch),
+                len(st.vertices),
+            )
+        if stop:
+            self._update(st)
         mesh = self._mesh(st)
+        if len(mesh.unresolved):
+            log.warning(
+                "%d refinement points were below the spacing floor and not inserted "
+                "(near-singular surface?); see SurfaceMesh.unresolved",
+                len(mesh.unresolved),
+            )
         mesh.stats.update(
             seconds=time.perf_counter() - t0,
             rounds=st.rounds,
             evaluations=surface.evaluations - evals0,
             samples=len(st.vertices),
             inserted=dict(st.inserted),
+            facets_evaluated=st.changed,
+            phase_seconds={k: round(v, 4) for k, v in st.timing.items()},
             unresolved=len(mesh.unresolved),
             method="boissonnat-oudot",
             topology=self.topology,
@@ -137,7 +153,8 @@ class Refiner:
 
     def _insert(self, st: _State, points: np.ndarray, stage: str) -> None:
         n0 = len(st.vertices)
-        ids = st.rdt.insert(points)
+        with _timed(st, "insert"):
+            ids = st.rdt.insert(points)
         new = ids >= n0
         grown = np.empty((st.rdt.number_of_samples, 3))
         grown[:n0] = st.vertices
@@ -147,47 +164,87 @@ class Refiner:
 
     def _update(self, st: _State) -> None:
         """Evaluate the facets whose dual changed and hand the flags to C++."""
-        tri, seg = st.rdt.changed_facets()
-        corners = st.vertices[tri]
-        ev = evaluate_facets(self.surface, corners, seg)
-        r = ev.restricted
-        bad = np.zeros(len(tri), bool)
-        bad[r] = (
-            self.criteria.bad(corners[r], ev.centre[r], ev.radius[r])
-            | (ev.n_cross[r] >= 2)
-            | ev.tangential[r]
-        )
-        flags = (r * RESTRICTED) | (bad * BAD) | ((r & ev.outward) * OUTWARD)
-        st.rdt.update_facets(flags.astype(np.uint8), ev.centre)
+        with _timed(st, "changed_facets"):
+            tri, seg, end_index, ends, rho = st.rdt.changed_facets()
+        with _timed(st, "crossings"):
+            apex = st.vertices[tri[:, 0]]
+            ev = evaluate_facets(self.surface, apex, seg, rho, end_index, ends)
+        with _timed(st, "criteria"):
+            r = ev.restricted
+            bad = np.zeros(len(tri), bool)
+            bad[r] = self.criteria.bad(st.vertices[tri[r]], ev.centre[r], ev.radius[r])
+            topo = r & ((ev.n_cross >= 2) | ev.tangential)
+            flags = (r * RESTRICTED) | (bad * BAD) | (topo * TOPO) | ((r & ev.outward) * OUTWARD)
+        with _timed(st, "update_facets"):
+            st.rdt.update_facets(flags.astype(np.uint8), ev.centre)
+        st.changed += len(tri)
 
     def _candidates(self, st: _State) -> tuple[np.ndarray, np.ndarray, str]:
-        """Refinement points with their ball radii, and the stage they come from."""
-        tri, centres = st.rdt.facets(BAD)
-        if len(tri):
-            return centres, self._radii(st, tri, centres), "facet"
-        if self.topology == "non-manifold":
-            return self._isolated(st, *st.rdt.facets(0))
-        tri, centres = st.rdt.facets(0)
+        """Refinement points with their ball radii, from the first stage that has any.
+
+        Stages: bad facets (criteria, or several/tangential crossings), then
+        unless non-manifold output is allowed singular and boundary edges and
+        non-manifold vertices, then samples without facets. Points closer to
+        the mesh than the floor are refused and kept in ``st.unresolved``.
+        """
+        st.unresolved = []
+        tri, centres, flags = st.rdt.facets(BAD | TOPO)
         radii = self._radii(st, tri, centres)
+        found = self._floor(st, centres, radii, topo=(flags & BAD) == 0, stage="facet")
+        if found is not None:
+            return found
+        tri, centres, _ = st.rdt.facets(0)
+        radii = self._radii(st, tri, centres)
+        for stage, pick in self._topology_defects(st, tri, radii):
+            found = self._floor(st, centres[pick], radii[pick], topo=True, stage=stage)
+            if found is not None:
+                return found
+        x, r = self._isolated(st, tri)
+        found = self._floor(st, x, r, topo=True, stage="isolated")
+        if found is not None:
+            return found
+        return np.zeros((0, 3)), np.zeros(0), "done"
+
+    def _floor(self, st, centres, radii, topo, stage):
+        """Keep the points whose ball is above the spacing floor; None if none are.
+
+        Criteria-driven points stop at a numerical floor; points driven only by
+        topology stop at a fraction of the size bound, so singular surfaces
+        terminate (algorithm.md 7.1).
+        """
+        if len(centres) == 0:
+            return None
+        floor = np.full(len(centres), self.h_min)
+        topo = np.broadcast_to(topo, len(centres))
+        if topo.any():
+            psi = self.criteria.sizing(centres[topo])
+            if psi is not None:
+                floor[topo] = np.maximum(self.h_min, TOPOLOGY_FLOOR * psi)
+        keep = radii > floor
+        if not keep.all():
+            st.unresolved.append(centres[~keep])
+        if not keep.any():
+            return None
+        return centres[keep], radii[keep], stage
+
+    def _topology_defects(self, st: _State, tri: np.ndarray, radii: np.ndarray):
+        """(stage, facet indices) for the manifold stages, in CGAL's order."""
+        if self.topology == "non-manifold":
+            return
         status = complex_status(tri, len(st.vertices))
         bad_edges = status.bad_edges(allow_boundary=self.topology == "manifold-with-boundary")
         if bad_edges.size:
-            hit = np.isin(status.facet_edges, bad_edges)
-            f_idx, e_slot = np.nonzero(hit)
-            pick = largest_incident(status.facet_edges[f_idx, e_slot], f_idx, radii)
-            return centres[pick], radii[pick], "edge"
+            f_idx, e_slot = np.nonzero(np.isin(status.facet_edges, bad_edges))
+            yield "edge", largest_incident(status.facet_edges[f_idx, e_slot], f_idx, radii)
         bad_v = np.flatnonzero(status.vertex_fans > 1)
         if bad_v.size:
-            hit = np.isin(tri, bad_v)
-            f_idx, corner = np.nonzero(hit)
-            pick = largest_incident(tri[f_idx, corner], f_idx, radii)
-            return centres[pick], radii[pick], "vertex"
-        return self._isolated(st, tri, centres)
+            f_idx, corner = np.nonzero(np.isin(tri, bad_v))
+            yield "vertex", largest_incident(tri[f_idx, corner], f_idx, radii)
 
     def _radii(self, st: _State, tri: np.ndarray, centres: np.ndarray) -> np.ndarray:
         return np.linalg.norm(centres - st.vertices[tri[:, 0]], axis=1)
 
-    def _isolated(self, st: _State, tri: np.ndarray, centres: np.ndarray):
+    def _isolated(self, st: _State, tri: np.ndarray):
         """Points far from samples that have no restricted facet (algorithm.md 3.4).
 
         Shoots from each such sample p along and around -n and +n; the first
@@ -198,7 +255,7 @@ class Refiner:
         used[tri.ravel()] = True
         lonely = np.flatnonzero(~used)
         if lonely.size == 0:
-            return np.zeros((0, 3)), np.zeros(0), "isolated"
+            return np.zeros((0, 3)), np.zeros(0)
         p = st.vertices[lonely]
         n = self.surface.grad(p)
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
@@ -215,19 +272,20 @@ class Refiner:
         length = -b + np.sqrt(np.maximum(b * b - c, 0.0))
         ok = length > 0
         rows = np.flatnonzero(ok)
-        buckets = [(rows[r], S) for r, S in bucket_samples(length[rows], np.full(rows.size, 64))]
-        cr = line_crossings(self.surface, start, d, buckets, xatol=1e-9 * R)
+        order, buckets = bucket_samples(length[rows], np.full(rows.size, 64))
+        rows = rows[order]
+        cr = line_crossings(self.surface, start[rows], d[rows], buckets, xatol=1e-9 * R)
         if cr.segment.size == 0:
-            return np.zeros((0, 3)), np.zeros(0), "isolated"
+            return np.zeros((0, 3)), np.zeros(0)
         first = np.r_[True, cr.segment[1:] != cr.segment[:-1]]
-        seg, x = cr.segment[first], cr.point[first]
+        seg, x = rows[cr.segment[first]], cr.point[first]
         _, nearest = cKDTree(st.vertices).query(x)
         me = lonely[owner[seg]]
         valid = nearest == me
         seg, x, me = seg[valid], x[valid], me[valid]
         r = np.linalg.norm(x - st.vertices[me], axis=1)
         pick = largest_incident(me, np.arange(len(x)), r)
-        return x[pick], r[pick], "isolated"
+        return x[pick], r[pick]
 
     def _check_budget(self, st: _State, t0: float) -> str | None:
         b = self.budget
@@ -240,7 +298,7 @@ class Refiner:
         return None
 
     def _mesh(self, st: _State) -> SurfaceMesh:
-        tri, centres = st.rdt.facets(0)
+        tri, centres, _ = st.rdt.facets(0)
         used, faces = np.unique(tri, return_inverse=True)
         faces = faces.reshape(-1, 3).astype(np.int64)
         # Deterministic output: each face starts at its smallest id (orientation
@@ -259,6 +317,15 @@ class Refiner:
         return mesh
 
 
+@contextmanager
+def _timed(st: _State, phase: str):
+    t = time.perf_counter()
+    try:
+        yield
+    finally:
+        st.timing[phase] = st.timing.get(phase, 0.0) + time.perf_counter() - t
+
+
 def _shot_directions(n: np.ndarray) -> np.ndarray:
     """Directions at 0, 30 and 60 degrees around -n and +n, ``(k, 26, 3)``."""
     helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
@@ -270,6 +337,7 @@ def _shot_directions(n: np.ndarray) -> np.ndarray:
         out.append(sgn * n)
         for tilt in (np.pi / 6, np.pi / 3):
             for phi in np.arange(6) * np.pi / 3:
-                out.append(sgn * np.cos(tilt) * n
-                           + np.sin(tilt) * (np.cos(phi) * t1 + np.sin(phi) * t2))
+                out.append(
+                    sgn * np.cos(tilt) * n + np.sin(tilt) * (np.cos(phi) * t1 + np.sin(phi) * t2)
+                )
     return np.stack(out, axis=1)

@@ -11,6 +11,9 @@ import numpy as np
 from .complex import complex_status, euler_characteristics
 from .criteria import min_angles
 
+#: File formats :meth:`SurfaceMesh.save` writes (through trimesh).
+MESH_FORMATS = ("ply", "obj", "stl", "off", "glb", "gltf", "3mf", "dae")
+
 
 @dataclass
 class SurfaceMesh:
@@ -96,14 +99,12 @@ class SurfaceMesh:
         OSError
             If the file cannot be written.
         """
-        import trimesh.exchange.export as ex
-
         path = os.fspath(path)
         ext = os.path.splitext(path)[1].lower().lstrip(".")
-        if ext not in ex._mesh_exporters:
+        if ext not in MESH_FORMATS:
             raise ValueError(
                 f"cannot write {path!r}: unknown mesh format {ext!r}; use one of "
-                f"{', '.join(sorted(ex._mesh_exporters))}"
+                f"{', '.join(MESH_FORMATS)}"
             )
         self.to_trimesh().export(path)
 

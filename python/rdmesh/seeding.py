@@ -15,6 +15,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
+from . import _rdt
 from ._errors import BoundingSphereError, EmptySurfaceError
 from .oracles import ImplicitSurface
 from .roots import line_crossings
@@ -110,27 +111,31 @@ def initial_sample(
     origin = np.concatenate(origins)
     direction = np.ascontiguousarray(np.concatenate(dirs))
     cell = np.concatenate(cells)
-    rows = np.arange(len(origin))
     S = np.column_stack([np.zeros(len(origin)), np.full(len(origin), h)])
-    cr = line_crossings(surface, origin, direction, [(rows, S)], xatol=1e-9 * R)
+    cr = line_crossings(surface, origin, direction, [(slice(0, len(origin)), S)], xatol=1e-9 * R)
     points, cell = cr.point, cell[cr.segment]
     # Connected bands of grid cells that contain the surface.
-    corners = [inside[i : n - 1 + i, j : n - 1 + j, k : n - 1 + k] for i in (0, 1)
-               for j in (0, 1) for k in (0, 1)]
+    corners = [
+        inside[i : n - 1 + i, j : n - 1 + j, k : n - 1 + k]
+        for i in (0, 1)
+        for j in (0, 1)
+        for k in (0, 1)
+    ]
     mixed = np.any(corners, axis=0) & ~np.all(corners, axis=0)
     labels, n_labels = ndimage.label(mixed, structure=np.ones((3, 3, 3)))
     lab = labels[tuple(cell.T)]
+    # Thin large bands to mutually distant points; keep small bands whole.
     spacing = 3.0 * h if spacing is None else max(spacing, h)
-    vox = np.floor(((points - c0) @ rot) / spacing).astype(np.int64)
-    key = np.column_stack([lab, vox])
-    _, first = np.unique(key, axis=0, return_index=True)
     keep = np.zeros(len(points), bool)
-    keep[first] = True
+    keep[_rdt.select_independent(points, np.full(len(points), spacing))] = True
     small = np.bincount(lab, minlength=n_labels + 1) <= SMALL_COMPONENT
     keep |= small[lab]
     out = points[keep]
     log.info(
         "seeding: %d crossings on a %d^3 grid, %d bands, %d seeds",
-        len(points), resolution, n_labels, len(out),
+        len(points),
+        resolution,
+        n_labels,
+        len(out),
     )
     return out

@@ -1,0 +1,278 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Build and run the CGAL reference mesher (``benchmarks/cgal_reference``).
+
+Standard library only.  Nothing is printed; progress goes to the
+``logging`` logger of this module.
+
+Typical use::
+
+    from cgal_runner import build_reference, run_reference
+
+    exe = build_reference("benchmarks/build/cgal_reference")
+    result = run_reference(exe, "surface_mesher", "torus",
+                           angle=30, radius=0.01, distance=0.01)
+    result["seconds"], result["vertices"]
+
+``run_reference`` returns the JSON object printed by the program: ``mesher``,
+``surface``, ``seconds`` (wall time of the meshing call only), ``vertices``,
+``faces``, ``evaluations`` (implicit-function calls during meshing),
+``cgal_version``, ``bounding_sphere`` ([cx, cy, cz, r]), the criteria,
+``error_bound``, ``seed``, ``closed``, ``components`` and
+``euler_characteristic`` of the output surface.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import shutil
+import subprocess
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "DEFAULT_BUILD_DIR",
+    "MESHERS",
+    "SOURCE_DIR",
+    "SURFACES",
+    "CgalReferenceError",
+    "build_reference",
+    "run_reference",
+]
+
+logger = logging.getLogger(__name__)
+
+_HERE = Path(__file__).resolve().parent
+SOURCE_DIR = _HERE / "cgal_reference"
+DEFAULT_BUILD_DIR = _HERE / "build" / "cgal_reference"
+_EXE_NAME = "cgal_reference"
+
+MESHERS = ("surface_mesher", "mesh_3")
+SURFACES = (
+    "sphere",
+    "ellipsoid",
+    "torus",
+    "thin_torus",
+    "double_torus",
+    "tanglecube",
+    "two_spheres",
+    "blob_line",
+)
+
+# Keys every successful run prints.
+_REQUIRED_KEYS = (
+    "mesher",
+    "surface",
+    "seconds",
+    "vertices",
+    "faces",
+    "evaluations",
+    "cgal_version",
+)
+
+PathLike = str | os.PathLike[str]
+
+
+class CgalReferenceError(RuntimeError):
+    """Building or running the reference program failed.
+
+    ``returncode``, ``stdout`` and ``stderr`` hold what the failing command
+    gave (``returncode`` is None after a timeout).
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        returncode: int | None = None,
+        stdout: str = "",
+        stderr: str = "",
+    ) -> None:
+        super().__init__(message)
+        self.returncode = returncode
+        self.stdout = stdout
+        self.stderr = stderr
+
+
+def _cmake() -> str:
+    cmake = shutil.which("cmake")
+    if cmake is None:
+        raise CgalReferenceError("cmake not found on PATH")
+    return cmake
+
+
+def _run_checked(cmd: Sequence[str], what: str, timeout: float | None) -> None:
+    logger.info("%s: %s", what, " ".join(cmd))
+    try:
+        proc = subprocess.run(
+            list(cmd), capture_output=True, text=True, timeout=timeout, check=False
+        )
+    except subprocess.TimeoutExpired as exc:
+        raise CgalReferenceError(f"{what} timed out after {timeout} s") from exc
+    if proc.returncode != 0:
+        tail = (proc.stdout + proc.stderr).strip().splitlines()[-40:]
+        raise CgalReferenceError(
+            f"{what} failed (exit {proc.returncode}):\n" + "\n".join(tail),
+            returncode=proc.returncode,
+            stdout=proc.stdout,
+            stderr=proc.stderr,
+        )
+    logger.debug("%s output:\n%s", what, proc.stdout)
+
+
+def _sources() -> list:
+    return [p for p in SOURCE_DIR.iterdir() if p.is_file()]
+
+
+def _up_to_date(exe: Path, build_dir: Path) -> bool:
+    if not exe.is_file() or not (build_dir / "CMakeCache.txt").is_file():
+        return False
+    built = exe.stat().st_mtime
+    return all(p.stat().st_mtime <= built for p in _sources())
+
+
+def build_reference(
+    build_dir: PathLike = DEFAULT_BUILD_DIR,
+    *,
+    jobs: int = 2,
+    force: bool = False,
+    timeout: float | None = 1800.0,
+) -> Path:
+    """Configure and build the reference program; return the executable.
+
+    Configures with CMake (Release) into ``build_dir`` if that has no
+    CMakeCache.txt yet, then builds with ``jobs`` parallel jobs.  Nothing is
+    run when the executable exists and is newer than every file of
+    ``benchmarks/cgal_reference`` (unless ``force``).  A cold build takes
+    about a minute (one translation unit, mostly CGAL templates).
+
+    Raises CgalReferenceError if cmake is missing, CGAL is not found, the
+    compilation fails or takes longer than ``timeout`` seconds per step.
+    """
+    build_dir = Path(build_dir).resolve()
+    exe = build_dir / _EXE_NAME
+    if not force and _up_to_date(exe, build_dir):
+        logger.debug("CGAL reference up to date: %s", exe)
+        return exe
+
+    cmake = _cmake()
+    if not (build_dir / "CMakeCache.txt").is_file():
+        build_dir.mkdir(parents=True, exist_ok=True)
+        _run_checked(
+            [cmake, "-S", str(SOURCE_DIR), "-B", str(build_dir), "-DCMAKE_BUILD_TYPE=Release"],
+            "configure CGAL reference",
+            timeout,
+        )
+    # cmake --build re-runs the configure step itself if CMakeLists.txt changed.
+    _run_checked(
+        [cmake, "--build", str(build_dir), "--parallel", str(int(jobs))],
+        "build CGAL reference",
+        timeout,
+    )
+    if not exe.is_file():
+        raise CgalReferenceError(f"build finished but {exe} does not exist")
+    # make may leave the old executable untouched when nothing needed
+    # rebuilding (e.g. a source file was only touched); refresh its time so the
+    # up-to-date check above does not rebuild every call.
+    if not _up_to_date(exe, build_dir):
+        os.utime(exe)
+    logger.info("CGAL reference built: %s", exe)
+    return exe
+
+
+def _number(name: str, value: float) -> str:
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return repr(v)
+
+
+def run_reference(
+    exe: PathLike,
+    mesher: str,
+    surface: str,
+    angle: float,
+    radius: float,
+    distance: float,
+    error_bound: float | None = None,
+    timeout: float | None = 3600.0,
+    *,
+    seed: int | None = None,
+    out: PathLike | None = None,
+) -> dict[str, Any]:
+    """Run the reference program once and return its JSON result as a dict.
+
+    ``mesher`` is "surface_mesher" or "mesh_3"; ``surface`` one of SURFACES;
+    ``angle`` (degrees), ``radius`` and ``distance`` are the CGAL facet
+    criteria; ``error_bound`` the relative error of the implicit oracle
+    (None: the program's default, 1e-6); ``seed`` CGAL's random seed
+    (None: 0); ``out`` an OFF file to write the surface to.
+
+    Raises ValueError for arguments the program rejects (its exit code 2),
+    CgalReferenceError for any other failure, including a run longer than
+    ``timeout`` seconds (the process is killed then; None = no limit).
+    """
+    if mesher not in MESHERS:
+        raise ValueError(f"unknown mesher {mesher!r}; expected one of {MESHERS}")
+    if surface not in SURFACES:
+        raise ValueError(f"unknown surface {surface!r}; expected one of {SURFACES}")
+    cmd = [
+        str(exe),
+        "--mesher", mesher,
+        "--surface", surface,
+        "--angle", _number("angle", angle),
+        "--radius", _number("radius", radius),
+        "--distance", _number("distance", distance),
+    ]  # fmt: skip
+    if error_bound is not None:
+        cmd += ["--error-bound", _number("error_bound", error_bound)]
+    if seed is not None:
+        cmd += ["--seed", str(int(seed))]
+    if out is not None:
+        cmd += ["--out", str(out)]
+
+    logger.debug("run: %s", " ".join(cmd))
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
+    except subprocess.TimeoutExpired as exc:
+        raise CgalReferenceError(
+            f"{mesher} on {surface} timed out after {timeout} s",
+            stdout=exc.stdout if isinstance(exc.stdout, str) else "",
+            stderr=exc.stderr if isinstance(exc.stderr, str) else "",
+        ) from exc
+    except OSError as exc:
+        raise CgalReferenceError(f"cannot run {exe}: {exc}") from exc
+
+    if proc.returncode == 2:
+        first = proc.stderr.strip().splitlines()[:1]
+        raise ValueError(first[0] if first else "cgal_reference rejected its arguments")
+    if proc.returncode != 0:
+        raise CgalReferenceError(
+            f"{mesher} on {surface} failed (exit {proc.returncode}): {proc.stderr.strip()}",
+            returncode=proc.returncode,
+            stdout=proc.stdout,
+            stderr=proc.stderr,
+        )
+    lines = [line for line in proc.stdout.splitlines() if line.strip()]
+    try:
+        result = json.loads(lines[-1])
+    except (IndexError, json.JSONDecodeError) as exc:
+        raise CgalReferenceError(
+            f"unexpected output from {exe}: {proc.stdout!r}",
+            returncode=proc.returncode,
+            stdout=proc.stdout,
+            stderr=proc.stderr,
+        ) from exc
+    if not isinstance(result, dict) or any(k not in result for k in _REQUIRED_KEYS):
+        raise CgalReferenceError(
+            f"incomplete result from {exe}: {result!r}",
+            returncode=proc.returncode,
+            stdout=proc.stdout,
+            stderr=proc.stderr,
+        )
+    if proc.stderr.strip():
+        logger.debug("stderr of %s on %s: %s", mesher, surface, proc.stderr.strip())
+    return result

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Set up rdmesh on Debian 12 (system packages, a virtual environment, the
+# package itself) and run one job. Idempotent: a second run only redoes what
+# changed.
+#
+#   bash scripts/quickstart.sh demo    # mesh a built-in surface, write mesh + picture
+#   bash scripts/quickstart.sh test    # run the test suite
+#   bash scripts/quickstart.sh bench   # run the benchmark against CGAL
+#
+# Environment: RDMESH_VENV (default .venv), PYTHON (default python3).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+job="${1:-demo}"
+shift || true
+venv="${RDMESH_VENV:-.venv}"
+python="${PYTHON:-python3}"
+
+say() { printf 'quickstart: %s\n' "$*" >&2; }
+
+# 1. System packages (CGAL 5.5 headers, a C++ compiler, CMake, Python venv).
+packages=(g++ cmake make libcgal-dev libgmp-dev libmpfr-dev python3-venv python3-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  say "installing ${missing[*]}"
+  if [[ $(id -u) -ne 0 ]]; then
+    say "need root to install system packages (run as root, or install: ${missing[*]})"
+    exit 1
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# 2. Virtual environment.
+if [[ ! -x "$venv/bin/python" ]]; then
+  say "creating virtual environment $venv"
+  "$python" -m venv "$venv"
+fi
+pip=("$venv/bin/python" -m pip --disable-pip-version-check -q)
+
+# 3. The package, rebuilt only when its sources changed.
+stamp="$venv/.rdmesh-source-hash"
+hash=$(cat pyproject.toml CMakeLists.txt cpp/* python/rdmesh/*.py | sha256sum | cut -d' ' -f1)
+if [[ ! -f "$stamp" || "$(cat "$stamp")" != "$hash" ]] || ! "$venv/bin/python" -c "import rdmesh" 2>/dev/null; then
+  say "building and installing rdmesh (C++ extension against CGAL; about a minute)"
+  "${pip[@]}" install ".[render,test]"
+  echo "$hash" >"$stamp"
+fi
+
+# 4. The job.
+case "$job" in
+  demo)
+    exec "$venv/bin/rdmesh" demo "$@"
+    ;;
+  test)
+    exec "$venv/bin/python" -m pytest -q tests "$@"
+    ;;
+  bench)
+    exec "$venv/bin/python" benchmarks/bench_vs_cgal.py "$@"
+    ;;
+  *)
+    say "unknown job '$job' (use demo, test or bench)"
+    exit 2
+    ;;
+esac

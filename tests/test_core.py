@@ -1,0 +1,356 @@
+"""The C++ core rdmesh._rdt: insertion, incremental restricted facets, batching."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from meshcheck import face_normals
+from rdmesh import _rdt
+from rdmesh.criteria import FacetCriteria, circumradii
+from rdmesh.facets import evaluate_facets
+from rdmesh.refine import BAD, OUTWARD, RESTRICTED
+from rdmesh.surfaces import SURFACES
+
+
+def _rdt_new(centre=(0.0, 0.0, 0.0), radius=2.0):
+    return _rdt.RestrictedDelaunay(np.asarray(centre, float), radius)
+
+
+# -- insertion ------------------------------------------------------------------
+
+
+def test_insert_returns_ids_and_samples():
+    rng = np.random.default_rng(0)
+    rdt = _rdt_new()
+    p = rng.uniform(-1, 1, (50, 3))
+    ids = rdt.insert(p)
+    assert ids.dtype == np.int64
+    assert sorted(ids.tolist()) == list(range(50))
+    assert rdt.number_of_samples == 50
+    # samples() is indexed by id.
+    assert np.array_equal(rdt.samples()[ids], p)
+    q = rng.uniform(-1, 1, (20, 3))
+    ids2 = rdt.insert(q)
+    assert sorted(ids2.tolist()) == list(range(50, 70))
+    assert np.array_equal(rdt.samples()[ids2], q)
+
+
+def test_duplicates_get_existing_ids():
+    rng = np.random.default_rng(1)
+    rdt = _rdt_new()
+    p = rng.uniform(-1, 1, (30, 3))
+    ids = rdt.insert(p)
+    # Re-inserting old points, plus a point twice within one batch.
+    new = rng.uniform(-1, 1, (1, 3))
+    batch = np.concatenate([p[[3, 17]], new, new, p[[3]]])
+    ids2 = rdt.insert(batch)
+    assert ids2[0] == ids[3] and ids2[1] == ids[17] and ids2[4] == ids[3]
+    assert ids2[2] == ids2[3] == 30
+    assert rdt.number_of_samples == 31
+    assert np.array_equal(rdt.samples()[30], new[0])
+    # Inserting only existing points changes no facet.
+    tri = rdt.changed_facets()[0]
+    rdt.update_facets(np.zeros(len(tri), np.uint8), np.zeros((len(tri), 3)))
+    assert np.array_equal(rdt.insert(p[::-1]), ids[::-1])
+    assert len(rdt.changed_facets()[0]) == 0
+
+
+def test_insert_empty_batch():
+    rdt = _rdt_new()
+    assert rdt.insert(np.zeros((0, 3))).shape == (0,)
+    assert rdt.number_of_samples == 0
+
+
+@pytest.mark.parametrize(
+    ("point", "match"),
+    [
+        pytest.param([np.nan, 0.0, 0.0], r"non-finite", id="nan"),
+        pytest.param([0.0, np.inf, 0.0], r"non-finite", id="inf"),
+        pytest.param([4.1, 0.0, 0.0], r"outside twice the bounding radius", id="far"),
+        pytest.param([0.0, 0.0, -1e9], r"outside twice the bounding radius", id="very_far"),
+    ],
+)
+def test_insert_bad_points(point, match):
+    rdt = _rdt_new()
+    rdt.insert(np.array([[0.1, 0.2, 0.3]]))
+    batch = np.array([[0.5, 0.0, 0.0], point])
+    with pytest.raises(ValueError, match=match):
+        rdt.insert(batch)
+    # Rejected before anything is inserted.
+    assert rdt.number_of_samples == 1
+
+
+def test_insert_bad_shape():
+    rdt = _rdt_new()
+    with pytest.raises(ValueError, match=r"shape \(n, 3\)"):
+        rdt.insert(np.zeros((4, 2)))
+    with pytest.raises(ValueError, match=r"shape \(n, 3\)"):
+        rdt.insert(np.zeros(3))
+
+
+@pytest.mark.parametrize(
+    ("centre", "radius"),
+    [
+        ((0, 0, 0), -1.0),
+        ((0, 0, 0), 0.0),
+        ((0, 0, 0), np.nan),
+        ((np.inf, 0, 0), 1.0),
+        ((0, 0), 1.0),
+    ],
+)
+def test_constructor_rejects_bad_sphere(centre, radius):
+    with pytest.raises(ValueError):
+        _rdt.RestrictedDelaunay(np.asarray(centre, float), radius)
+
+
+def test_update_facets_length_must_match():
+    rng = np.random.default_rng(2)
+    rdt = _rdt_new()
+    rdt.insert(rng.uniform(-1, 1, (40, 3)))
+    tri = rdt.changed_facets()[0]
+    k = len(tri)
+    assert k > 0
+    with pytest.raises(ValueError, match=r"one entry per facet"):
+        rdt.update_facets(np.zeros(k - 1, np.uint8), np.zeros((k - 1, 3)))
+    with pytest.raises(ValueError, match=r"matching"):
+        rdt.update_facets(np.zeros(k, np.uint8), np.zeros((k + 1, 3)))
+    # An insertion in between invalidates the pending list.
+    rdt.insert(rng.uniform(-1, 1, (1, 3)))
+    with pytest.raises(ValueError, match=r"no insert may come in between"):
+        rdt.update_facets(np.zeros(k, np.uint8), np.zeros((k, 3)))
+
+
+def test_changed_facets_are_delaunay_facets_with_clipped_duals():
+    rng = np.random.default_rng(3)
+    rdt = _rdt_new(radius=1.5)
+    rdt.insert(rng.uniform(-1, 1, (60, 3)))
+    tri, seg, end_index, ends, rho = rdt.changed_facets()
+    assert np.all(tri[:, 0] < tri[:, 1]) and np.all(tri[:, 1] < tri[:, 2])
+    assert len(np.unique(tri, axis=0)) == len(tri)
+    assert np.all(rdt.is_facet(tri))
+    # Each dual segment is clipped to the ball and equidistant from its facet.
+    assert np.all(np.linalg.norm(seg, axis=2) <= 1.5 * (1 + 1e-12))
+    P = rdt.samples()
+    for end in (seg[:, 0], seg[:, 1]):
+        d = np.linalg.norm(end[:, None, :] - P[tri], axis=2)
+        assert np.allclose(d, d[:, :1], rtol=1e-8, atol=1e-12)
+    # Segment ends index a table of distinct points (shared Voronoi vertices once).
+    assert np.array_equal(ends[end_index], seg)
+    assert len(np.unique(ends, axis=0)) == len(ends)
+    assert len(ends) < 2 * len(tri)
+    assert np.allclose(rho, circumradii(P[tri]), rtol=1e-9)
+    # After a full pass nothing changed any more.
+    rdt.update_facets(np.zeros(len(tri), np.uint8), np.zeros((len(tri), 3)))
+    assert len(rdt.changed_facets()[0]) == 0
+    # all_facets lists the same facets.
+    all_tri, all_seg = rdt.all_facets()
+    order_a = np.lexsort(tri.T[::-1])
+    order_b = np.lexsort(all_tri.T[::-1])
+    assert np.array_equal(tri[order_a], all_tri[order_b])
+    assert np.array_equal(seg[order_a], all_seg[order_b])
+
+
+def test_neighbours_symmetric_and_cover_facet_edges():
+    rng = np.random.default_rng(4)
+    rdt = _rdt_new()
+    rdt.insert(rng.uniform(-1, 1, (40, 3)))
+    offsets, adj = rdt.neighbours(np.arange(40))
+    nb = [set(adj[offsets[i] : offsets[i + 1]].tolist()) for i in range(40)]
+    for i in range(40):
+        assert i not in nb[i]
+        assert all(i in nb[j] for j in nb[i])
+    tri, _ = rdt.all_facets()
+    for a, b in itertools.chain(tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [0, 2]]):
+        assert b in nb[a]
+    with pytest.raises(ValueError, match=r"out of range"):
+        rdt.neighbours(np.array([40]))
+    with pytest.raises(ValueError, match=r"out of range"):
+        rdt.is_facet(np.array([[0, 1, 99]]))
+
+
+# -- the incremental restricted set equals a from-scratch recomputation -----------
+
+
+def _torus_sample(n, rng, R=1.0, r=0.4):
+    u, v = rng.uniform(0, 2 * np.pi, (2, n))
+    return np.column_stack(
+        [(R + r * np.cos(v)) * np.cos(u), (R + r * np.cos(v)) * np.sin(u), r * np.sin(v)]
+    )
+
+
+def _sphere_sample(n, rng):
+    p = rng.normal(size=(n, 3))
+    return p / np.linalg.norm(p, axis=1)[:, None]
+
+
+def _from_scratch(rdt, surface, criteria):
+    """Restricted, bad and outward-oriented facets recomputed from all facets."""
+    P = rdt.samples()
+    tri, seg = rdt.all_facets()
+    ev = evaluate_facets(surface, P[tri[:, 0]], seg, circumradii(P[tri]))
+    r = ev.restricted
+    bad = np.zeros(len(tri), bool)
+    bad[r] = (
+        criteria.bad(P[tri[r]], ev.centre[r], ev.radius[r])
+        | (ev.n_cross[r] >= 2)
+        | ev.tangential[r]
+    )
+    return tri, seg, ev, r, bad
+
+
+def _as_set(tri):
+    return {tuple(t) for t in np.sort(tri, axis=1).tolist()}
+
+
+def _drive_and_compare(surface, seeds, criteria, max_rounds=60):
+    """A hand-written facet-stage loop; after every round the core's restricted
+    set must equal a from-scratch recomputation."""
+    rdt = _rdt.RestrictedDelaunay(surface.centre, surface.radius)
+    rdt.insert(seeds)
+    rounds = 0
+    for rounds in range(1, max_rounds + 1):  # noqa: B007
+        P = rdt.samples()
+        tri, seg, end_index, ends, rho = rdt.changed_facets()
+        assert np.allclose(rho, circumradii(P[tri]), rtol=1e-9)
+        ev = evaluate_facets(surface, P[tri[:, 0]], seg, rho, end_index, ends)
+        r = ev.restricted
+        bad = np.zeros(len(tri), bool)
+        bad[r] = (
+            criteria.bad(P[tri[r]], ev.centre[r], ev.radius[r])
+            | (ev.n_cross[r] >= 2)
+            | ev.tangential[r]
+        )
+        flags = r * RESTRICTED | bad * BAD | (r & ev.outward) * OUTWARD
+        rdt.update_facets(flags.astype(np.uint8), ev.centre)
+        rdt.check()
+
+        out_tri, out_centre, _ = rdt.facets(0)
+        bad_tri, bad_centre, _ = rdt.facets(BAD)
+        s_tri, s_seg, s_ev, s_r, s_bad = _from_scratch(rdt, surface, criteria)
+        assert _as_set(out_tri) == _as_set(s_tri[s_r])
+        assert _as_set(bad_tri) == _as_set(s_tri[s_bad])
+        assert len(_as_set(out_tri)) == len(out_tri)  # each facet reported once
+        # Same surface centres (up to the root tolerance) and orientation:
+        # the reported normal points along the dual segment iff the outside
+        # lies in the segment's direction.
+        key = {t: i for i, t in enumerate(map(tuple, s_tri.tolist()))}
+        idx = np.array([key[tuple(t)] for t in np.sort(out_tri, axis=1).tolist()], dtype=np.int64)
+        assert np.allclose(out_centre, s_ev.centre[idx], atol=1e-9, rtol=0)
+        n = face_normals(P, out_tri)
+        along = np.einsum("ij,ij->i", n, s_seg[idx, 1] - s_seg[idx, 0]) > 0
+        assert np.array_equal(along, s_ev.outward[idx])
+
+        if len(bad_tri) == 0:
+            break
+        radii = np.linalg.norm(bad_centre - P[bad_tri[:, 0]], axis=1)
+        pick = _rdt.select_independent(bad_centre, radii)
+        rdt.insert(bad_centre[pick])
+    return rdt, rounds
+
+
+@pytest.mark.parametrize(
+    ("name", "sample", "radius_bound"),
+    [("sphere", _sphere_sample, 0.15), ("torus", _torus_sample, 0.08)],
+)
+def test_incremental_restricted_set_matches_recomputation(name, sample, radius_bound):
+    surface = SURFACES[name].make()
+    seeds = sample(300, np.random.default_rng(5))
+    criteria = FacetCriteria(30.0, radius_bound)
+    rdt, rounds = _drive_and_compare(surface, seeds, criteria)
+    assert rounds > 3  # the comparison ran on several incremental rounds
+    assert len(rdt.facets(BAD)[0]) == 0
+    assert rdt.number_of_samples > 2 * len(seeds)
+
+
+# -- the batching rule ----------------------------------------------------------
+
+
+def _greedy_reference(c, r):
+    order = sorted(range(len(r)), key=lambda k: (-r[k], c[k, 0], c[k, 1], c[k, 2]))
+    acc = []
+    for k in order:
+        inside = False
+        for a in acc:
+            e = c[k] - c[a]
+            if e[0] * e[0] + e[1] * e[1] + e[2] * e[2] <= r[a] * r[a]:
+                inside = True
+                break
+        if not inside:
+            acc.append(k)
+    return acc
+
+
+def _random_balls(rng, kind, n):
+    if kind == "continuous":
+        return rng.uniform(-1, 1, (n, 3)), rng.uniform(0.01, 0.3, n)
+    if kind == "multiscale":
+        return rng.uniform(-1, 1, (n, 3)), 10.0 ** rng.uniform(-4, 0, n)
+    if kind == "extreme":  # radii from 1e-300 to 1: hundreds of grid levels
+        return rng.uniform(-1, 1, (n, 3)), 10.0 ** rng.uniform(-300, 0, n)
+    # Ties: centres on a grid of exactly representable values, few radii, so
+    # equal radii, equal coordinates and distances exactly equal to a radius
+    # (closed ball: rejected) all occur.
+    c = rng.integers(-4, 5, (n, 3)) * 0.25
+    r = rng.choice([0.25, 0.5, 0.75], n)
+    return c, r
+
+
+@pytest.mark.parametrize("kind", ["continuous", "multiscale", "extreme", "ties"])
+@pytest.mark.parametrize("seed", range(4))
+def test_select_independent_equals_greedy(kind, seed):
+    rng = np.random.default_rng(100 + seed)
+    c, r = _random_balls(rng, kind, 300)
+    got = _rdt.select_independent(c, r)
+    ref = _greedy_reference(c, r)
+    # Same balls in the same order (exactly repeated balls are interchangeable).
+    assert len(got) == len(ref)
+    assert np.array_equal(c[got], c[ref]) and np.array_equal(r[got], r[ref])
+    if kind != "ties":
+        assert got.tolist() == ref
+    # Independent: no accepted centre lies in another accepted ball.
+    acc = c[got]
+    d = np.linalg.norm(acc[:, None] - acc[None], axis=2)
+    rmax = np.maximum(r[got][:, None], r[got][None, :])
+    off = ~np.eye(len(got), dtype=bool)
+    assert np.all(d[off] > rmax[off])
+    # Maximal: every rejected centre lies in an accepted ball at least as large.
+    rejected = np.setdiff1d(np.arange(len(r)), got)
+    dr = np.linalg.norm(c[rejected][:, None] - acc[None], axis=2)
+    covers = (dr <= r[got][None, :]) & (r[got][None, :] >= r[rejected][:, None])
+    assert np.all(covers.any(axis=1))
+
+
+def test_select_independent_duplicates_and_order():
+    c = np.array([[0.0, 0, 0], [0.0, 0, 0], [1.0, 0, 0], [0.5, 0, 0]])
+    r = np.array([0.2, 0.2, 0.6, 0.1])
+    # Largest first; ball 3 is inside ball 2 (distance 0.5 <= 0.6); of the two
+    # identical balls the first (lexicographic tie, then stable) is kept once.
+    got = _rdt.select_independent(c, r).tolist()
+    assert got[0] == 2
+    assert len(got) == 2 and got[1] in (0, 1)
+    assert _rdt.select_independent(np.zeros((0, 3)), np.zeros(0)).shape == (0,)
+
+
+@pytest.mark.parametrize(
+    ("radii", "match"),
+    [
+        pytest.param([0.1, 0.0], r"positive radius", id="zero"),
+        pytest.param([0.1, -0.1], r"positive radius", id="negative"),
+        pytest.param([np.nan, 0.1], r"positive radius", id="nan"),
+        pytest.param([np.inf, 0.1], r"positive radius", id="inf"),
+        pytest.param([0.1], r"matching", id="length"),
+    ],
+)
+def test_select_independent_bad_radii(radii, match):
+    c = np.array([[0.0, 0, 0], [1.0, 0, 0]])
+    with pytest.raises(ValueError, match=match):
+        _rdt.select_independent(c, np.array(radii))
+
+
+def test_select_independent_bad_centres():
+    with pytest.raises(ValueError, match=r"finite centre"):
+        _rdt.select_independent(np.array([[0.0, np.nan, 0]]), np.array([0.1]))
+    with pytest.raises(ValueError, match=r"shape \(n, 3\)"):
+        _rdt.select_independent(np.zeros((2, 2)), np.ones(2))

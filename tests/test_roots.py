@@ -1,0 +1,262 @@
+"""rdmesh.roots.line_crossings: every crossing along many segments at once."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rdmesh
+from rdmesh.roots import Crossings, bucket_samples, line_crossings
+from rdmesh.surfaces import SURFACES
+from scipy.optimize import brentq
+
+
+class CountingSurface:
+    """An ImplicitSurface whose raw f records every call."""
+
+    def __init__(self, name):
+        base = SURFACES[name].make()
+        self.raw = base.f
+        self.calls: list[int] = []
+
+        def f(p):
+            self.calls.append(len(p))
+            return self.raw(p)
+
+        self.surface = rdmesh.ImplicitSurface(f, base.bounding_sphere, gradient=base.gradient)
+
+
+def _random_segments(rng, k, spread=1.6):
+    o = rng.uniform(-spread, spread, (k, 3))
+    d = rng.normal(size=(k, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    length = rng.uniform(0.3, 3.5, k)
+    return o, d, length
+
+
+def _segments_through_torus(rng, k):
+    """Segments passing within 0.1 of the torus (R = 1, r = 0.4)."""
+    u, v = rng.uniform(0, 2 * np.pi, (2, k))
+    q = np.column_stack(
+        [(1 + 0.4 * np.cos(v)) * np.cos(u), (1 + 0.4 * np.cos(v)) * np.sin(u), 0.4 * np.sin(v)]
+    ) + rng.uniform(-0.1, 0.1, (k, 3))
+    d = rng.normal(size=(k, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    length = rng.uniform(0.3, 3.0, k)
+    o = q - (rng.uniform(0, 1, k) * length)[:, None] * d
+    return o, d, length
+
+
+def _crossings(surface, o, d, length, n_intervals, xatol):
+    """line_crossings on segments given in any order, through bucket_samples.
+
+    Returns the crossings re-indexed to the input segments (sorted by segment,
+    then position) and each segment's sample positions.
+    """
+    order, buckets = bucket_samples(length, n_intervals)
+    cr = line_crossings(surface, o[order], d[order], buckets, xatol)
+    samples = [None] * len(length)
+    for rows, S in buckets:
+        for row, s_row in zip(order[rows], S, strict=True):
+            samples[row] = s_row
+    seg = order[cr.segment]
+    idx = np.lexsort((cr.s, seg))
+    return (Crossings(seg[idx], cr.s[idx], cr.point[idx], cr.rising[idx]), samples)
+
+
+def _scalar_crossings(raw, o, d, s_row, vectorised_scan=False):
+    """Scalar loop on one segment: brentq on every sign change between the
+    positions ``s_row``; returns [(s, rising)]."""
+
+    def g(s):
+        return float(raw((o + s * d)[None, :])[0])
+
+    # For dense scans only the scan itself is vectorised.
+    vals = raw(o + s_row[:, None] * d) if vectorised_scan else np.vectorize(g)(s_row)
+    inside = vals < 0  # 0 counts as outside
+    out = []
+    for j in np.flatnonzero(inside[:-1] != inside[1:]):
+        lo, hi = s_row[j], s_row[j + 1]
+        if vals[j] == 0.0:
+            root = lo
+        elif vals[j + 1] == 0.0:
+            root = hi
+        else:
+            root = brentq(g, lo, hi, xtol=1e-14, rtol=4 * np.finfo(float).eps)
+        out.append((root, bool(inside[j])))
+    return out
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_matches_scalar_brentq_on_torus(seed):
+    """Same counts, positions and directions as a scalar loop over the same
+    samples; where that loop misses a hidden pair of crossings (found by a
+    much denser scalar scan), line_crossings may find more, but only real ones."""
+    rng = np.random.default_rng(seed)
+    cs = CountingSurface("torus")
+    k = 300
+    o, d, length = _segments_through_torus(rng, k)
+    cr, samples = _crossings(cs.surface, o, d, length, rng.integers(1, 100, k), 1e-13)
+    assert np.allclose(cr.point, o[cr.segment] + cr.s[:, None] * d[cr.segment], atol=1e-12)
+    n_compared = n_crossings = 0
+    for row, s_row in enumerate(samples):
+        ref = _scalar_crossings(cs.raw, o[row], d[row], s_row)
+        dense = _scalar_crossings(
+            cs.raw, o[row], d[row], np.linspace(0, length[row], 4001), vectorised_scan=True
+        )
+        mine = cr.segment == row
+        got_s, got_rising = cr.s[mine], cr.rising[mine]
+        if len(dense) == len(ref):  # the samples see every crossing
+            n_compared += 1
+            n_crossings += len(ref)
+            assert len(got_s) == len(ref)
+            assert np.allclose(got_s, [x for x, _ in ref], atol=1e-9, rtol=0)
+            assert got_rising.tolist() == [r for _, r in ref]
+        else:
+            # Everything found is a true crossing, including the ones the
+            # plain sign test finds.
+            assert len(got_s) >= len(ref)
+            dense_s = np.array([x for x, _ in dense])
+            assert np.all(np.min(np.abs(got_s[:, None] - dense_s[None]), axis=1) < 1e-9)
+            for x, _ in ref:
+                assert np.min(np.abs(got_s - x)) < 1e-9
+    assert n_compared > 250
+    assert n_crossings > 200
+
+
+def test_against_exact_quartic_roots():
+    """Along a line the torus function is a quartic: compare with its roots
+    wherever they are simple and farther apart than the sample spacing."""
+    rng = np.random.default_rng(11)
+    cs = CountingSurface("torus")
+    k = 400
+    o, d, length = _random_segments(rng, k)
+    cr, _ = _crossings(cs.surface, o, d, length, np.full(k, 64), 1e-13)
+    counts = cr.count(k)
+    checked = 0
+    for row in range(k):
+        t = np.linspace(0, length[row], 9)
+        vals = cs.raw(o[row] + t[:, None] * d[row])
+        coef = np.polynomial.polynomial.polyfit(t, vals, 4)
+        roots = np.polynomial.polynomial.polyroots(coef)
+        real = np.sort(roots[np.abs(roots.imag) < 1e-9].real)
+        real = real[(real > 0) & (real < length[row])]
+        h = length[row] / 64
+        if len(real) and (
+            np.min(np.r_[real, length[row] - real]) < h or np.any(np.diff(real) < 2 * h)
+        ):
+            continue  # near an end or a close pair: sampling may legitimately differ
+        checked += 1
+        assert counts[row] == len(real)
+        assert np.allclose(cr.s[cr.segment == row], real, atol=1e-8)
+    assert checked > 300
+
+
+def test_even_number_of_crossings_found():
+    s = SURFACES["sphere"].make()
+    # A chord: both ends outside, two crossings.
+    o = np.array([[-1.5, 0.3, 0.0], [0.0, -1.7, 0.5]])
+    d = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    length = np.array([3.0, 3.4])
+    cr, _ = _crossings(s, o, d, length, np.full(2, 16), 1e-13)
+    assert cr.count(2).tolist() == [2, 2]
+    x = np.sqrt(1 - 0.09)
+    assert np.allclose(cr.point[cr.segment == 0, 0], [-x, x], atol=1e-12)
+    y = np.sqrt(1 - 0.25)
+    assert np.allclose(cr.point[cr.segment == 1, 1], [-y, y], atol=1e-12)
+    # Entering then leaving.
+    assert cr.rising.tolist() == [False, True, False, True]
+
+    # Four crossings of the torus along the x axis, both ends outside.
+    t = SURFACES["torus"].make()
+    cr, _ = _crossings(
+        t,
+        np.array([[-1.9, 0.0, 0.0]]),
+        np.array([[1.0, 0.0, 0.0]]),
+        np.array([3.8]),
+        np.array([32]),
+        1e-13,
+    )
+    assert np.allclose(cr.point[:, 0], [-1.4, -0.6, 0.6, 1.4], atol=1e-12)
+    assert cr.rising.tolist() == [False, True, False, True]
+
+
+def test_rising_matches_gradient():
+    rng = np.random.default_rng(21)
+    s = SURFACES["tanglecube"].make()
+    k = 500
+    o, d, length = _random_segments(rng, k, spread=3.0)
+    length *= 2
+    cr, _ = _crossings(s, o, d, length, np.full(k, 64), 1e-12)
+    assert len(cr.segment) > 200
+    g = s.gradient(cr.point)
+    slope = np.einsum("ij,ij->i", g, d[cr.segment])
+    assert np.array_equal(cr.rising, slope > 0)
+    # Points are on the surface.
+    assert np.all(np.abs(s.f(cr.point)) / np.linalg.norm(g, axis=1) < 1e-9)
+    # Sorted by segment, then by position along it.
+    order = np.lexsort((cr.s, cr.segment))
+    assert np.array_equal(order, np.arange(len(order)))
+
+
+def test_no_crossings():
+    s = SURFACES["sphere"].make()
+    o = np.array([[1.5, 1.5, 0.0], [0.0, 0.0, 0.0]])
+    d = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    cr, _ = _crossings(s, o, d, np.array([1.0, 0.5]), np.full(2, 8), 1e-12)
+    assert cr.segment.shape == (0,) and cr.point.shape == (0, 3)
+    assert cr.count(2).tolist() == [0, 0]
+    assert line_crossings(s, o, d, [], 1e-12).count(2).tolist() == [0, 0]
+
+
+@pytest.mark.parametrize("k", [10, 3000])
+def test_few_calls_of_f(k):
+    """One call for all samples, then one per root-finder iteration."""
+    rng = np.random.default_rng(k)
+    cs = CountingSurface("torus")
+    o, d, length = _random_segments(rng, k)
+    cr, samples = _crossings(cs.surface, o, d, length, rng.integers(1, 100, k), 1e-12)
+    assert len(cr.segment) > 0
+    n_samples = sum(len(s_row) for s_row in samples)
+    assert cs.calls[0] == n_samples
+    assert len(cs.calls) < 40
+    # Root-finder calls only touch the brackets, never more points than exist.
+    assert max(cs.calls[1:]) <= 2 * len(cr.segment)
+
+
+def test_bucket_samples_layout():
+    rng = np.random.default_rng(3)
+    length = rng.uniform(0.1, 2.0, 50)
+    want = rng.integers(0, 200, 50)
+    order, buckets = bucket_samples(length, want)
+    assert sorted(order.tolist()) == list(range(50))
+    covered = np.zeros(50, int)
+    for rows, S in buckets:
+        covered[rows] += 1
+        seg = order[rows]
+        n = S.shape[1] - 1
+        assert S.shape[0] == len(seg)
+        assert np.all(n >= np.minimum(want[seg], 32))  # rounded up (large ones capped)
+        assert np.array_equal(S[:, 0], np.zeros(len(seg)))
+        assert np.allclose(S[:, -1], length[seg])
+        assert np.allclose(np.diff(S, axis=1), (length[seg] / n)[:, None])
+    assert np.all(covered == 1)  # every segment in exactly one bucket
+    # A warp moves the interior samples but keeps the ends.
+    order, buckets = bucket_samples(length, want, warp=lambda rows, u: length[rows, None] * u**2)
+    for rows, S in buckets:
+        seg = order[rows]
+        u = np.linspace(0, 1, S.shape[1])
+        assert np.allclose(S, length[seg, None] * u**2)
+
+
+def test_hidden_pair_between_samples():
+    """Two crossings between neighbouring samples (no sign change at any
+    sample) are still found, as the docstring promises."""
+    s = SURFACES["sphere"].make()
+    o = np.array([[-1.2, 0.99, 0.0]])
+    d = np.array([[1.0, 0.0, 0.0]])
+    cr, (s_row,) = _crossings(s, o, d, np.array([3.0]), np.array([1]), 1e-13)
+    values = s.f(o + s_row[:, None] * d)
+    assert np.all(values > 0)  # every sample is outside
+    x = np.sqrt(1 - 0.99**2)
+    assert np.allclose(cr.point[:, 0], [-x, x], atol=1e-10)
+    assert cr.rising.tolist() == [False, True]
