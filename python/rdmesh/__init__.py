@@ -12,6 +12,7 @@ from ._errors import (
     BudgetExceeded,
     CGALError,
     EmptySurfaceError,
+    Interrupted,
     OracleError,
     RdmeshError,
 )
@@ -32,6 +33,7 @@ __all__ = [
     "EmptySurfaceError",
     "FacetCriteria",
     "ImplicitSurface",
+    "Interrupted",
     "OracleError",
     "RdmeshError",
     "SurfaceMesh",

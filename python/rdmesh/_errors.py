@@ -42,3 +42,7 @@ class BudgetExceeded(RdmeshError):
         super().__init__(message)
         self.mesh = mesh
         self.reason = reason
+
+
+class Interrupted(BudgetExceeded):
+    """Refinement was interrupted (Ctrl-C); ``.mesh`` holds the partial mesh."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from .criteria import FacetCriteria, Sizing
 from .oracles import ImplicitSurface
@@ -24,6 +25,7 @@ def mesh_surface(
     max_vertices: int | None = None,
     time_limit: float | None = None,
     seed_resolution: int = 64,
+    progress: bool | Callable[[dict], None] = False,
 ) -> SurfaceMesh:
     """Mesh an implicit surface by restricted Delaunay refinement.
 
@@ -56,6 +58,10 @@ def mesh_surface(
     seed_resolution : int, default 64
         Cells across the bounding ball of the grid scan that finds the
         components; components thinner than a cell may be missed.
+    progress : bool or callable, default False
+        True shows a progress bar on stderr; a callable receives a dict
+        (``round``, ``stage``, ``inserted``, ``vertices``, ``seconds``) after
+        every round.
 
     Returns
     -------
@@ -74,6 +80,9 @@ def mesh_surface(
     rdmesh.BudgetExceeded
         ``max_vertices`` or ``time_limit`` stopped the run; the partial mesh
         is attached as ``.mesh`` and flagged ``complete=False``.
+    rdmesh.Interrupted
+        Ctrl-C (KeyboardInterrupt) stopped the run; a BudgetExceeded with the
+        partial mesh attached.
     """
     if not isinstance(surface, ImplicitSurface):
         raise ValueError(
@@ -109,4 +118,14 @@ def mesh_surface(
     except (TypeError, ValueError):
         raise ValueError(f"seed must be an integer, got {seed!r}") from None
     budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
-    return Refiner(surface, criteria, topology, seed, budget, int(seed_resolution)).run()
+    if progress is True:
+        from .progress import ProgressBar
+
+        with ProgressBar() as bar:
+            return Refiner(
+                surface, criteria, topology, seed, budget, int(seed_resolution), bar.update
+            ).run()
+    if progress is not False and not callable(progress):
+        raise ValueError(f"progress must be True, False or a callable, got {progress!r}")
+    callback = progress if callable(progress) else None
+    return Refiner(surface, criteria, topology, seed, budget, int(seed_resolution), callback).run()

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -20,7 +21,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import _rdt
-from ._errors import BudgetExceeded
+from ._errors import BudgetExceeded, Interrupted
 from .complex import complex_status, largest_incident
 from .criteria import FacetCriteria
 from .facets import evaluate_facets
@@ -72,6 +73,7 @@ class Refiner:
         seed: int = 0,
         budget: Budget | None = None,
         seed_resolution: int = 64,
+        progress: Callable[[dict], None] | None = None,
     ) -> None:
         if topology not in TOPOLOGIES:
             raise ValueError(f"unknown topology {topology!r}; use one of {', '.join(TOPOLOGIES)}")
@@ -82,6 +84,7 @@ class Refiner:
         self.budget = budget or Budget()
         self.seed_resolution = seed_resolution
         self.h_min = MIN_SPACING * surface.radius
+        self.progress = progress
 
     def run(self) -> SurfaceMesh:
         t0 = time.perf_counter()
@@ -99,6 +102,25 @@ class Refiner:
         if cap is not None and len(seeds) > cap:
             seeds, stop = seeds[:cap], f"max_vertices={cap} reached"
         self._insert(st, seeds, "seeds")
+        interrupted = False
+        try:
+            stop = self._loop(st, t0, stop)
+        except KeyboardInterrupt:
+            # Keep what is there: samples inserted so far, facets evaluated so
+            # far (a round cut short may leave holes; the mesh is flagged).
+            interrupted, stop = True, "interrupted"
+            st.vertices = st.rdt.samples()
+            self._update(st)
+        mesh = self._finish(st, t0, evals0, stop)
+        if interrupted:
+            raise Interrupted("refinement interrupted", mesh=mesh, reason=stop)
+        if stop:
+            raise BudgetExceeded(f"refinement stopped early: {stop}", mesh=mesh, reason=stop)
+        return mesh
+
+    def _loop(self, st: _State, t0: float, stop: str | None) -> str | None:
+        """Refinement rounds until nothing is bad or a budget runs out."""
+        cap = self.budget.max_vertices
         while stop is None:
             st.rounds += 1
             self._update(st)
@@ -115,15 +137,22 @@ class Refiner:
                 batch = batch[: max(0, cap - len(st.vertices))]
                 stop = f"max_vertices={cap} reached"
             self._insert(st, batch, stage)
-            log.debug(
-                "round %d: %s stage inserted %d, %d samples",
-                st.rounds,
-                stage,
-                len(batch),
-                len(st.vertices),
-            )
+            log.debug("round %d: %s stage, %d samples", st.rounds, stage, len(st.vertices))
+            if self.progress is not None:
+                self.progress(
+                    {
+                        "round": st.rounds,
+                        "stage": stage,
+                        "inserted": len(batch),
+                        "vertices": len(st.vertices),
+                        "seconds": time.perf_counter() - t0,
+                    }
+                )
         if stop:
             self._update(st)
+        return stop
+
+    def _finish(self, st: _State, t0: float, evals0: int, stop: str | None) -> SurfaceMesh:
         mesh = self._mesh(st)
         if len(mesh.unresolved):
             log.warning(
@@ -134,7 +163,7 @@ class Refiner:
         mesh.stats.update(
             seconds=time.perf_counter() - t0,
             rounds=st.rounds,
-            evaluations=surface.evaluations - evals0,
+            evaluations=self.surface.evaluations - evals0,
             samples=len(st.vertices),
             inserted=dict(st.inserted),
             facets_evaluated=st.changed,
@@ -146,7 +175,6 @@ class Refiner:
         if stop:
             mesh.complete = False
             mesh.stats["stop_reason"] = stop
-            raise BudgetExceeded(f"refinement stopped early: {stop}", mesh=mesh, reason=stop)
         return mesh
 
     # -- steps --------------------------------------------------------------
