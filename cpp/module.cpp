@@ -95,15 +95,18 @@ PYBIND11_MODULE(_rdt, m) {
           "duplicates).")
       .def(
           "changed_facets",
-          [](RestrictedDelaunay& self) {
+          [](RestrictedDelaunay& self, std::size_t max_facets) {
             rdmesh::ChangedFacets f;
             {
               py::gil_scoped_release release;
-              f = self.changed_facets();
+              f = self.changed_facets(max_facets);
             }
             return facet_quad(f);
           },
-          "Facets whose dual changed since the last call: ((k, 3) sorted "
+          py::arg("max_facets") = 0,
+          "Next chunk (about max_facets; 0 = all) of the facets whose dual "
+          "changed since the last round; empty when the round is done. "
+          "Returns ((k, 3) sorted "
           "vertex ids, (k, 2, 3) clipped dual segments, (k, 2) indices of the "
           "segment ends into (u, 3) distinct end points, (k,) facet "
           "circumradii).")

@@ -66,9 +66,15 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
                                   " lies outside twice the bounding radius");
     pts.emplace_back(p[0], p[1], p[2]);
   }
-  // Cell handles of a pending update die with the insertion.
+  // Cell handles of an unfinished round die with the insertion: report the
+  // whole neighbourhood of that round's vertices again next round.
+  if (!pending_.empty() || cursor_ < fresh_.size())
+    last_new_.insert(last_new_.begin(), round_vertices_.begin(),
+                     round_vertices_.end());
   pending_.clear();
   pending_swapped_.clear();
+  fresh_.clear();
+  cursor_ = chunk_start_ = 0;
 
   std::vector<std::size_t> order(n);
   for (std::size_t k = 0; k < n; ++k) order[k] = k;
@@ -127,30 +133,53 @@ bool RestrictedDelaunay::clip(Vec3& a, Vec3& b) const {
   return true;
 }
 
-ChangedFacets RestrictedDelaunay::changed_facets() {
-  ++round_;
-  pending_.clear();
-  pending_swapped_.clear();
-  std::vector<Cell_handle> fresh, around;
-  for (Vertex_handle v : last_new_) {
-    around.clear();
-    dt_.incident_cells(v, std::back_inserter(around));
-    for (Cell_handle c : around) {
-      CellInfo& info = c->info();
-      if (info.stamp == round_) continue;
-      info.stamp = round_;
-      info.order = static_cast<std::int32_t>(fresh.size());
-      info.flags = {0, 0, 0, 0};
-      fresh.push_back(c);
-    }
+ChangedFacets RestrictedDelaunay::changed_facets(std::size_t max_facets) {
+  if (!pending_.empty()) {
+    // The previous chunk was never updated: hand it out again.
+    cursor_ = chunk_start_;
+    pending_.clear();
+    pending_swapped_.clear();
   }
-  last_new_.clear();
+  if (!last_new_.empty()) {
+    // Cells created since the last round: exactly those around new vertices.
+    ++round_;
+    fresh_.clear();
+    cursor_ = 0;
+    round_vertices_.swap(last_new_);
+    std::vector<Cell_handle> around;
+    for (Vertex_handle v : round_vertices_) {
+      around.clear();
+      dt_.incident_cells(v, std::back_inserter(around));
+      for (Cell_handle c : around) {
+        CellInfo& info = c->info();
+        if (info.stamp == round_) continue;
+        info.stamp = round_;
+        info.order = static_cast<std::int32_t>(fresh_.size());
+        info.flags = {0, 0, 0, 0};
+        fresh_.push_back(c);
+      }
+    }
+    last_new_.clear();
+  }
+  ++call_;
+  chunk_start_ = cursor_;
+  if (max_facets == 0) max_facets = static_cast<std::size_t>(-1);
 
   ChangedFacets out;
+  // About two facets and one Voronoi vertex per new cell.
+  const std::size_t guess =
+      std::min(max_facets, 2 * (fresh_.size() - cursor_)) + 16;
+  out.tri.reserve(3 * guess);
+  out.seg.reserve(6 * guess);
+  out.end_index.reserve(2 * guess);
+  out.rho.reserve(guess);
+  out.ends.reserve(3 * guess);
+  pending_.reserve(guess);
+  pending_swapped_.reserve(guess);
   auto cell_end = [&](Cell_handle c) {
     CellInfo& info = c->info();
-    if (info.end_stamp != round_) {
-      info.end_stamp = round_;
+    if (info.end_stamp != call_) {
+      info.end_stamp = call_;
       info.end_idx = static_cast<std::int64_t>(out.ends.size() / 3);
       const Vec3& p = circumcentre(c);
       out.ends.insert(out.ends.end(), p.begin(), p.end());
@@ -161,7 +190,8 @@ ChangedFacets RestrictedDelaunay::changed_facets() {
     out.ends.insert(out.ends.end(), p.begin(), p.end());
     return static_cast<std::int64_t>(out.ends.size() / 3 - 1);
   };
-  for (Cell_handle c : fresh) {
+  for (; cursor_ < fresh_.size() && pending_.size() < max_facets; ++cursor_) {
+    Cell_handle c = fresh_[cursor_];
     circumcentre(c);
     for (int i = 0; i < 4; ++i) {
       Cell_handle nb = c->neighbor(i);

@@ -46,7 +46,7 @@ struct CellInfo {
   std::int32_t stamp = -1;  // round in which the cell was reported as new
   std::int32_t order = -1;  // position in that round's list of new cells
   std::int64_t end_idx = -1;    // index into ChangedFacets::ends ...
-  std::int32_t end_stamp = -1;  // ... valid in this round only
+  std::int32_t end_stamp = -1;  // ... valid for one changed_facets call
   bool has_cc = false;
 };
 
@@ -83,10 +83,12 @@ class RestrictedDelaunay {
   // coincides with an existing sample gets that sample's id.
   std::vector<std::int64_t> insert(const double* xyz, std::size_t n);
 
-  // Facets of the cells created since the previous call whose clipped dual
-  // meets the bounding ball.  Their flags are cleared; set them again with
-  // update_facets (same order, same count) before the next insert.
-  ChangedFacets changed_facets();
+  // Facets of the cells created since the previous round whose clipped dual
+  // meets the bounding ball, in chunks of about max_facets (0: all at once);
+  // an empty result ends the round.  Their flags are cleared: set them with
+  // update_facets (same order, same count) before asking for the next chunk,
+  // or the same chunk is handed out again.
+  ChangedFacets changed_facets(std::size_t max_facets = 0);
   void update_facets(const std::uint8_t* flags, const double* centres,
                      std::size_t n);
 
@@ -128,7 +130,12 @@ class RestrictedDelaunay {
   std::vector<Vertex_handle> last_new_;
   std::vector<std::pair<Cell_handle, int>> pending_;
   std::vector<std::uint8_t> pending_swapped_;
+  std::vector<Vertex_handle> round_vertices_;  // inserted before this round
+  std::vector<Cell_handle> fresh_;  // cells new in this round
+  std::size_t cursor_ = 0;          // next cell of fresh_ to report
+  std::size_t chunk_start_ = 0;     // first cell of the pending chunk
   std::int32_t round_ = 0;
+  std::int32_t call_ = 0;
   Vertex_handle hint_;
 };
 

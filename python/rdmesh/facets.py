@@ -44,8 +44,7 @@ def evaluate_facets(
     apex: np.ndarray,
     seg: np.ndarray,
     rho: np.ndarray,
-    end_index: np.ndarray | None = None,
-    ends: np.ndarray | None = None,
+    end_values: np.ndarray | None = None,
 ) -> FacetEval:
     """Find the crossings of each facet's dual segment.
 
@@ -55,9 +54,9 @@ def evaluate_facets(
     apex : (k, 3) one vertex of each facet.
     seg : (k, 2, 3) dual segments (clipped to the bounding sphere).
     rho : (k,) facet circumradii.
-    end_index, ends : (k, 2) int and (u, 3) float, optional
-        Segment ends as indices into distinct points, so that ``f`` is
-        evaluated once per Voronoi vertex.
+    end_values : (k, 2) float, optional
+        ``f`` at both ends of each segment, when known (the core reports
+        shared Voronoi vertices once, so ``f`` is evaluated once per vertex).
 
     Returns
     -------
@@ -88,9 +87,8 @@ def evaluate_facets(
         return rho[rows, None] * np.sinh(w) - sigma0[rows, None]
 
     order, buckets = bucket_samples(length, n, warp=warp)
-    end_values = None
-    if end_index is not None and ends is not None and len(ends):
-        end_values = surface(ends)[end_index[order]]
+    if end_values is not None:
+        end_values = end_values[order]
     xatol = ROOT_RTOL * float(np.min(rho))
     cr = line_crossings(surface, start[order], u[order], buckets, xatol, end_values)
     if cr.segment.size == 0:

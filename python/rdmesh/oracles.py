@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -68,7 +69,47 @@ class ImplicitSurface:
         if self.gradient is not None and not callable(self.gradient):
             raise ValueError("gradient must be callable or None")
         self.centre, self.radius = _check_sphere(self.bounding_sphere)
+        self._lock = threading.Lock()
         self.bounding_sphere = (self.centre, self.radius)
+
+    @classmethod
+    def from_expression(
+        cls, text: str, bounding_sphere: tuple, name: str | None = None
+    ) -> ImplicitSurface:
+        """The surface ``text = 0`` for an arithmetic expression in x, y and z.
+
+        Parameters
+        ----------
+        text : str
+            For example ``"x**2 + y**2 + z**2 - 1"``. Only numbers, ``x y z``,
+            ``pi e tau``, ``+ - * / **`` and whitelisted math functions are
+            accepted (see :mod:`rdmesh.expressions`); it is never ``eval``-ed.
+        bounding_sphere : (centre, radius)
+            A sphere that strictly contains the surface.
+        name : str, optional
+            A label; the expression text by default.
+
+        Returns
+        -------
+        ImplicitSurface
+            Evaluated with numpy, with an exact gradient (forward-mode
+            differentiation; central differences where it is not finite).
+
+        Raises
+        ------
+        rdmesh.expressions.ExpressionError
+            (a ValueError) naming what is not allowed, or a syntax error.
+        """
+        from .expressions import parse_expression
+
+        expr = parse_expression(text)
+        centre, radius = _check_sphere(bounding_sphere)
+        step = 1e-6 * radius
+
+        def gradient(points: np.ndarray) -> np.ndarray:
+            return expr.gradient(points, step=step)
+
+        return cls(expr, (centre, radius), gradient=gradient, name=name or expr.text)
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """Evaluate ``f`` on ``(N, 3)`` points; returns ``(N,)`` float64."""
@@ -80,7 +121,8 @@ class ImplicitSurface:
 
     def _evaluate(self, pts: np.ndarray) -> np.ndarray:
         n = len(pts)
-        self.evaluations += n
+        with self._lock:
+            self.evaluations += n
         try:
             out = self.f(pts)
         except Exception as exc:  # noqa: BLE001 - user code may raise anything
@@ -107,7 +149,8 @@ class ImplicitSurface:
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
         n = len(pts)
         if self.gradient is not None:
-            self.evaluations += n
+            with self._lock:
+                self.evaluations += n
             try:
                 g = np.asarray(self.gradient(pts), dtype=np.float64)
             except Exception as exc:  # noqa: BLE001

@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -38,6 +39,10 @@ TOPOLOGIES = ("manifold", "manifold-with-boundary", "non-manifold")
 MIN_SPACING = 1e-7
 #: Points driven only by topology are refused below this fraction of the size bound.
 TOPOLOGY_FLOOR = 0.01
+#: Facets per chunk from the core, and per evaluation slice: bound the memory
+#: of a round's temporaries.
+CORE_CHUNK = 1 << 17
+CHUNK = 1 << 16
 #: Safety cap on rounds; smooth inputs need tens.
 MAX_ROUNDS = 2000
 
@@ -74,6 +79,7 @@ class Refiner:
         budget: Budget | None = None,
         seed_resolution: int = 64,
         progress: Callable[[dict], None] | None = None,
+        workers: int = 1,
     ) -> None:
         if topology not in TOPOLOGIES:
             raise ValueError(f"unknown topology {topology!r}; use one of {', '.join(TOPOLOGIES)}")
@@ -85,6 +91,7 @@ class Refiner:
         self.seed_resolution = seed_resolution
         self.h_min = MIN_SPACING * surface.radius
         self.progress = progress
+        self.workers = workers
 
     def run(self) -> SurfaceMesh:
         t0 = time.perf_counter()
@@ -191,21 +198,52 @@ class Refiner:
         st.inserted[stage] = st.inserted.get(stage, 0) + int(new.sum())
 
     def _update(self, st: _State) -> None:
-        """Evaluate the facets whose dual changed and hand the flags to C++."""
-        with _timed(st, "changed_facets"):
-            tri, seg, end_index, ends, rho = st.rdt.changed_facets()
-        with _timed(st, "crossings"):
-            apex = st.vertices[tri[:, 0]]
-            ev = evaluate_facets(self.surface, apex, seg, rho, end_index, ends)
-        with _timed(st, "criteria"):
+        """Evaluate the facets whose dual changed and hand the flags to C++.
+
+        The core hands out the changed facets in chunks, which bounds the
+        memory of a round. ``f`` is evaluated once for all Voronoi vertices of
+        a chunk, then once for all samples of each slice; with ``workers > 1``
+        slices run in threads (numpy releases the GIL).
+        """
+        while True:
+            with _timed(st, "changed_facets"):
+                tri, seg, end_index, ends, rho = st.rdt.changed_facets(CORE_CHUNK)
+            k = len(tri)
+            if k == 0:
+                return
+            with _timed(st, "evaluate"):
+                flags, centres = self._evaluate(st, tri, seg, self.surface(ends)[end_index], rho)
+            with _timed(st, "update_facets"):
+                st.rdt.update_facets(flags, centres)
+            st.changed += k
+
+    def _evaluate(self, st, tri, seg, end_f, rho):
+        """Flags (restricted, bad, topology, outward) and surface centres."""
+        k = len(tri)
+        flags = np.zeros(k, np.uint8)
+        centres = np.zeros((k, 3))
+
+        def work(sl: slice) -> None:
+            t = tri[sl]
+            ev = evaluate_facets(self.surface, st.vertices[t[:, 0]], seg[sl], rho[sl], end_f[sl])
             r = ev.restricted
-            bad = np.zeros(len(tri), bool)
-            bad[r] = self.criteria.bad(st.vertices[tri[r]], ev.centre[r], ev.radius[r])
+            bad = np.zeros(len(t), bool)
+            bad[r] = self.criteria.bad(st.vertices[t[r]], ev.centre[r], ev.radius[r])
             topo = r & ((ev.n_cross >= 2) | ev.tangential)
-            flags = (r * RESTRICTED) | (bad * BAD) | (topo * TOPO) | ((r & ev.outward) * OUTWARD)
-        with _timed(st, "update_facets"):
-            st.rdt.update_facets(flags.astype(np.uint8), ev.centre)
-        st.changed += len(tri)
+            flags[sl] = (
+                (r * RESTRICTED) | (bad * BAD) | (topo * TOPO) | ((r & ev.outward) * OUTWARD)
+            )
+            centres[sl] = ev.centre
+
+        step = CHUNK if self.workers == 1 else -(-k // self.workers)
+        slices = [slice(i, min(i + step, k)) for i in range(0, k, step)]
+        if self.workers > 1 and len(slices) > 1:
+            with ThreadPoolExecutor(self.workers) as pool:
+                list(pool.map(work, slices))
+        else:
+            for sl in slices:
+                work(sl)
+        return flags, centres
 
     def _candidates(self, st: _State) -> tuple[np.ndarray, np.ndarray, str]:
         """Refinement points with their ball radii, from the first stage that has any.

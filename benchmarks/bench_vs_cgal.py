@@ -1,0 +1,141 @@
+"""rdmesh against CGAL's Surface_mesher (make_surface_mesh) and Mesh_3, same run.
+
+Each surface is meshed with the same criteria (angle 30, radius bound =
+fraction x bounding radius, distance bound = radius bound) by rdmesh (numpy
+oracle) and by the CGAL reference program (compiled oracle, same CGAL), in
+alternation, each run in a fresh process. Medians are reported with the
+rdmesh/CGAL time ratio (below 1 means rdmesh is faster).
+
+CGAL is run with its default oracle error bound (1e-3, relative) and with a
+tight one (1e-6); rdmesh's crossings are always located to 1e-7 of the local
+facet size.
+
+    python benchmarks/bench_vs_cgal.py                 # torus + tanglecube, 0.005 R
+    python benchmarks/bench_vs_cgal.py --quick         # coarse, one repeat
+    python benchmarks/bench_vs_cgal.py --surfaces torus --fraction 0.0025 --repeats 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+from cgal_runner import build_reference, run_reference  # noqa: E402
+
+#: CGAL runs: (label, mesher, oracle error bound).
+CGAL_RUNS = (
+    ("cgal_surface_mesher", "surface_mesher", 1e-3),
+    ("cgal_surface_mesher_tight", "surface_mesher", 1e-6),
+    ("cgal_mesh_3", "mesh_3", 1e-3),
+)
+
+
+def run_rdmesh_here(surface: str, radius: float) -> dict:
+    """Mesh in this process and return the figures (used by the child process)."""
+    import rdmesh
+
+    s = rdmesh.surfaces.get(surface)
+    mesh = rdmesh.mesh_surface(s, angle_bound=30.0, radius_bound=radius, distance_bound=radius)
+    topo = mesh.topology()
+    return {
+        "seconds": mesh.stats["seconds"],
+        "vertices": len(mesh.vertices),
+        "faces": len(mesh.faces),
+        "evaluations": mesh.stats["evaluations"],
+        "rounds": mesh.stats["rounds"],
+        "min_angle": mesh.min_angle,
+        "closed": topo["closed_manifold"],
+        "euler": sum(topo["euler"]),
+        "components": topo["components"],
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "phase_seconds": mesh.stats["phase_seconds"],
+    }
+
+
+def run_rdmesh(surface: str, radius: float) -> dict:
+    out = subprocess.run(
+        [sys.executable, __file__, "--child", surface, repr(radius)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--surfaces", nargs="+", default=["torus", "tanglecube"])
+    p.add_argument("--fraction", type=float, default=0.005, help="radius bound / bounding radius")
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--quick", action="store_true", help="fraction 0.02, one repeat")
+    p.add_argument("--no-mesh3", action="store_true", help="skip Mesh_3")
+    p.add_argument("--json", type=Path, help="also write all runs to this file")
+    p.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+    if args.child:
+        print(json.dumps(run_rdmesh_here(args.child[0], float(args.child[1]))))
+        return 0
+    if args.quick:
+        args.fraction, args.repeats = 0.02, 1
+
+    import rdmesh
+
+    exe = build_reference()
+    runs = [r for r in CGAL_RUNS if not (args.no_mesh3 and r[1] == "mesh_3")]
+    results: dict[str, dict[str, list[dict]]] = {}
+    for surface in args.surfaces:
+        radius = args.fraction * rdmesh.surfaces.get(surface).radius
+        per = results.setdefault(surface, {})
+        for rep in range(args.repeats):
+            # Alternate the order so drift on a shared machine hits all alike.
+            order = [("rdmesh", None, None), *runs]
+            if rep % 2:
+                order.reverse()
+            for label, mesher, eb in order:
+                t = time.perf_counter()
+                if label == "rdmesh":
+                    r = run_rdmesh(surface, radius)
+                else:
+                    r = run_reference(exe, mesher, surface, 30.0, radius, radius, error_bound=eb)
+                r["wall_with_startup"] = time.perf_counter() - t
+                per.setdefault(label, []).append(r)
+                print(
+                    f"  {surface:11s} {label:26s} {r['seconds']:8.2f} s "
+                    f"{r['vertices']:8d} vertices",
+                    file=sys.stderr,
+                )
+        report(surface, radius, per)
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=1))
+    return 0
+
+
+def report(surface: str, radius: float, per: dict[str, list[dict]]) -> None:
+    base = statistics.median(r["seconds"] for r in per["rdmesh"])
+    print(f"\n{surface}: angle 30, radius = distance = {radius:g}, medians of {len(per['rdmesh'])}")
+    print(f"{'mesher':28s} {'seconds':>9s} {'vertices':>9s} {'vert/s':>9s} {'rdmesh/x':>9s}")
+    for label, rs in per.items():
+        sec = statistics.median(r["seconds"] for r in rs)
+        nv = int(statistics.median(r["vertices"] for r in rs))
+        ratio = base / sec
+        print(f"{label:28s} {sec:9.2f} {nv:9d} {nv / sec:9.0f} {ratio:9.2f}")
+    last = per["rdmesh"][-1]
+    print(
+        f"rdmesh: closed manifold {last['closed']}, components {last['components']}, "
+        f"Euler {last['euler']}, min angle {last['min_angle']:.2f}, "
+        f"{last['evaluations'] / last['vertices']:.0f} evaluations/vertex, "
+        f"peak RSS {last['peak_rss_mb']:.0f} MB"
+    )
+
+
+if __name__ == "__main__":
+    sys.exit(main())
