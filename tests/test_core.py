@@ -354,3 +354,62 @@ def test_select_independent_bad_centres():
         _rdt.select_independent(np.array([[0.0, np.nan, 0]]), np.array([0.1]))
     with pytest.raises(ValueError, match=r"shape \(n, 3\)"):
         _rdt.select_independent(np.zeros((2, 2)), np.ones(2))
+
+
+# -- chunked changed facets -------------------------------------------------------
+
+
+def _sphere_points(n, seed):
+    p = np.random.default_rng(seed).normal(size=(n, 3))
+    return p / np.linalg.norm(p, axis=1)[:, None]
+
+
+def _drain(rdt, max_facets):
+    """All chunks of a round, updating each with 'restricted' flags."""
+    seen = []
+    while True:
+        tri, seg, ei, ends, rho = rdt.changed_facets(max_facets)
+        if len(tri) == 0:
+            return seen
+        assert len(tri) <= max_facets + 12  # a chunk ends with its last cell
+        assert np.array_equal(ends[ei[:, 0]], seg[:, 0])
+        assert np.array_equal(ends[ei[:, 1]], seg[:, 1])
+        rdt.update_facets(np.full(len(tri), RESTRICTED | OUTWARD, np.uint8), seg[:, 0])
+        seen.append(tri)
+
+
+def test_chunks_cover_the_same_facets_as_one_call():
+    pts = _sphere_points(3000, 1)
+    one = _rdt_new()
+    one.insert(pts)
+    whole = one.changed_facets()[0]
+    many = _rdt_new()
+    many.insert(pts)
+    chunks = _drain(many, 500)
+    assert len(chunks) > 3
+    joined = np.concatenate(chunks)
+    assert len(_as_set(joined)) == len(joined)  # no facet twice
+    assert _as_set(joined) == _as_set(whole)
+    # Every restricted facet was updated: the complex has them all, once.
+    assert _as_set(many.facets(0)[0]) == _as_set(whole)
+    many.check()
+
+
+def test_chunk_not_updated_is_handed_out_again():
+    rdt = _rdt_new()
+    rdt.insert(_sphere_points(500, 2))
+    first = rdt.changed_facets(100)[0]
+    again = rdt.changed_facets(100)[0]
+    assert np.array_equal(first, again)
+
+
+def test_unfinished_round_is_reported_again_after_insert():
+    rdt = _rdt_new()
+    pts = _sphere_points(2000, 3)
+    rdt.insert(pts[:1000])
+    rdt.changed_facets(200)  # leave the round unfinished, never updated
+    rdt.insert(pts[1000:])
+    _drain(rdt, 10**9)
+    # Compare with a from-scratch pass: every facet whose dual meets the ball.
+    all_tri = rdt.all_facets()[0]
+    assert _as_set(rdt.facets(0)[0]) == _as_set(all_tri)
