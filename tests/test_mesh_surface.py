@@ -361,3 +361,13 @@ def test_coarse_meshes_are_still_closed_manifolds(name, radius_bound):
     s = SURFACES[name].make()
     m = rdmesh.mesh_surface(s, radius_bound=radius_bound)
     assert_good_mesh(m, s.f, s.gradient, s.radius, sizing=radius_bound)
+
+
+def test_worker_threads_give_the_same_mesh(torus_case):
+    """Facets evaluated in two threads: the same mesh as one thread."""
+    s = SURFACES["torus"].make()
+    two = rdmesh.mesh_surface(s, radius_bound=0.04, workers=2)
+    one = torus_case.mesh
+    assert np.array_equal(two.vertices, one.vertices)
+    assert np.array_equal(two.faces, one.faces)
+    assert two.stats["evaluations"] == one.stats["evaluations"]

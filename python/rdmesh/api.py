@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import numpy as np
+
 from .criteria import FacetCriteria, Sizing
 from .oracles import ImplicitSurface
 from .refine import TOPOLOGIES, Budget, Refiner
@@ -26,6 +28,7 @@ def mesh_surface(
     time_limit: float | None = None,
     seed_resolution: int = 64,
     progress: bool | Callable[[dict], None] = False,
+    workers: int = 1,
 ) -> SurfaceMesh:
     """Mesh an implicit surface by restricted Delaunay refinement.
 
@@ -62,6 +65,10 @@ def mesh_surface(
         True shows a progress bar on stderr; a callable receives a dict
         (``round``, ``stage``, ``inserted``, ``vertices``, ``seconds``) after
         every round.
+    workers : int, default 1
+        Threads that evaluate facets at once. numpy releases the GIL, so 2
+        uses both cores of a 2-core machine; ``f`` must then be thread-safe
+        (pure numpy functions are).
 
     Returns
     -------
@@ -117,15 +124,30 @@ def mesh_surface(
         seed = int(seed)
     except (TypeError, ValueError):
         raise ValueError(f"seed must be an integer, got {seed!r}") from None
+    if (
+        not isinstance(workers, (int, np.integer))
+        or isinstance(workers, bool)
+        or not (1 <= workers <= 64)
+    ):
+        raise ValueError(f"workers must be an integer from 1 to 64, got {workers!r}")
     budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
     if progress is True:
         from .progress import ProgressBar
 
         with ProgressBar() as bar:
             return Refiner(
-                surface, criteria, topology, seed, budget, int(seed_resolution), bar.update
+                surface,
+                criteria,
+                topology,
+                seed,
+                budget,
+                int(seed_resolution),
+                bar.update,
+                int(workers),
             ).run()
     if progress is not False and not callable(progress):
         raise ValueError(f"progress must be True, False or a callable, got {progress!r}")
     callback = progress if callable(progress) else None
-    return Refiner(surface, criteria, topology, seed, budget, int(seed_resolution), callback).run()
+    return Refiner(
+        surface, criteria, topology, seed, budget, int(seed_resolution), callback, int(workers)
+    ).run()

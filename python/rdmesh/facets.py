@@ -20,8 +20,9 @@ from .roots import bucket_samples, line_crossings
 SAMPLES_PER_RADIUS = 1.0
 #: A crossing whose direction makes |cos| below this with the gradient is tangential.
 TANGENCY_COS = 1e-3
-#: Root tolerance relative to the smallest facet circumradius of the call.
-ROOT_RTOL = 1e-7
+#: Root tolerance relative to the bounding radius. Fixed per run (not per
+#: chunk) so that results do not depend on how facets are grouped.
+ROOT_ATOL = 1e-10
 
 
 @dataclass
@@ -89,7 +90,7 @@ def evaluate_facets(
     order, buckets = bucket_samples(length, n, warp=warp)
     if end_values is not None:
         end_values = end_values[order]
-    xatol = ROOT_RTOL * float(np.min(rho))
+    xatol = ROOT_ATOL * surface.radius
     cr = line_crossings(surface, start[order], u[order], buckets, xatol, end_values)
     if cr.segment.size == 0:
         return out
