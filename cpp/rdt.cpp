@@ -68,13 +68,15 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
   }
   // Cell handles of an unfinished round die with the insertion: report the
   // whole neighbourhood of that round's vertices again next round.
-  if (!pending_.empty() || cursor_ < fresh_.size())
-    last_new_.insert(last_new_.begin(), round_vertices_.begin(),
-                     round_vertices_.end());
-  pending_.clear();
-  pending_swapped_.clear();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!pending_.empty() || cursor_ < fresh_.size())
+      last_new_.insert(last_new_.begin(), round_vertices_.begin(),
+                       round_vertices_.end());
+    pending_.clear();
+  }
   fresh_.clear();
-  cursor_ = chunk_start_ = 0;
+  cursor_ = 0;
 
   std::vector<std::size_t> order(n);
   for (std::size_t k = 0; k < n; ++k) order[k] = k;
@@ -134,12 +136,6 @@ bool RestrictedDelaunay::clip(Vec3& a, Vec3& b) const {
 }
 
 ChangedFacets RestrictedDelaunay::changed_facets(std::size_t max_facets) {
-  if (!pending_.empty()) {
-    // The previous chunk was never updated: hand it out again.
-    cursor_ = chunk_start_;
-    pending_.clear();
-    pending_swapped_.clear();
-  }
   if (!last_new_.empty()) {
     // Cells created since the last round: exactly those around new vertices.
     ++round_;
@@ -162,7 +158,6 @@ ChangedFacets RestrictedDelaunay::changed_facets(std::size_t max_facets) {
     last_new_.clear();
   }
   ++call_;
-  chunk_start_ = cursor_;
   if (max_facets == 0) max_facets = static_cast<std::size_t>(-1);
 
   ChangedFacets out;
@@ -174,8 +169,9 @@ ChangedFacets RestrictedDelaunay::changed_facets(std::size_t max_facets) {
   out.end_index.reserve(2 * guess);
   out.rho.reserve(guess);
   out.ends.reserve(3 * guess);
-  pending_.reserve(guess);
-  pending_swapped_.reserve(guess);
+  Chunk chunk;
+  chunk.facets.reserve(guess);
+  chunk.swapped.reserve(guess);
   auto cell_end = [&](Cell_handle c) {
     CellInfo& info = c->info();
     if (info.end_stamp != call_) {
@@ -190,7 +186,7 @@ ChangedFacets RestrictedDelaunay::changed_facets(std::size_t max_facets) {
     out.ends.insert(out.ends.end(), p.begin(), p.end());
     return static_cast<std::int64_t>(out.ends.size() / 3 - 1);
   };
-  for (; cursor_ < fresh_.size() && pending_.size() < max_facets; ++cursor_) {
+  for (; cursor_ < fresh_.size() && chunk.facets.size() < max_facets; ++cursor_) {
     Cell_handle c = fresh_[cursor_];
     circumcentre(c);
     for (int i = 0; i < 4; ++i) {
@@ -226,29 +222,41 @@ ChangedFacets RestrictedDelaunay::changed_facets(std::size_t max_facets) {
           c->vertex((i + 3) & 3)->point())));
       out.end_index.push_back(a == a0 ? cell_end(ca) : point_end(a));
       out.end_index.push_back(b == b0 ? cell_end(cb) : point_end(b));
-      pending_.emplace_back(c, i);
-      pending_swapped_.push_back(swapped ? 1 : 0);
+      chunk.facets.emplace_back(c, i);
+      chunk.swapped.push_back(swapped ? 1 : 0);
     }
+  }
+  if (!chunk.facets.empty()) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    pending_.push_back(std::move(chunk));
   }
   return out;
 }
 
 void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
                                        const double* centres, std::size_t n) {
-  if (n != pending_.size())
-    throw std::invalid_argument(
-        "update_facets needs one entry per facet of the last changed_facets() "
-        "call (expected " + std::to_string(pending_.size()) + ", got " +
-        std::to_string(n) + "); no insert may come in between");
+  Chunk chunk;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const std::size_t want = pending_.empty() ? 0 : pending_.front().facets.size();
+    if (n != want)
+      throw std::invalid_argument(
+          "update_facets needs one entry per facet of the oldest chunk from "
+          "changed_facets() not yet updated (expected " + std::to_string(want) +
+          ", got " + std::to_string(n) + "); no insert may come in between");
+    if (n == 0) return;
+    chunk = std::move(pending_.front());
+    pending_.pop_front();
+  }
   for (std::size_t k = 0; k < n; ++k) {
-    auto [c, i] = pending_[k];
+    auto [c, i] = chunk.facets[k];
     Cell_handle nb = c->neighbor(i);
     const int j = nb->index(c);
     std::uint8_t f = flags[k] & LABELS;
     if (!(f & RESTRICTED)) f = 0;
     // Segment runs c -> nb unless it was swapped for canonical order.
     const bool out_to_nb = (f & RESTRICTED) &&
-                           (((flags[k] & OUTWARD) != 0) != (pending_swapped_[k] != 0));
+                           (((flags[k] & OUTWARD) != 0) != (chunk.swapped[k] != 0));
     c->info().flags[i] = f | (out_to_nb ? OUTWARD : 0);
     nb->info().flags[j] = f | ((f & RESTRICTED) && !out_to_nb ? OUTWARD : 0);
     const double* x = centres + 3 * k;
@@ -257,8 +265,6 @@ void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
       nb->info().centre[j][d] = x[d];
     }
   }
-  pending_.clear();
-  pending_swapped_.clear();
 }
 
 FacetList RestrictedDelaunay::facets_with(std::uint8_t mask) const {

@@ -8,6 +8,8 @@
 #pragma once
 
 #include <array>
+#include <deque>
+#include <mutex>
 #include <cstdint>
 #include <vector>
 
@@ -85,9 +87,10 @@ class RestrictedDelaunay {
 
   // Facets of the cells created since the previous round whose clipped dual
   // meets the bounding ball, in chunks of about max_facets (0: all at once);
-  // an empty result ends the round.  Their flags are cleared: set them with
-  // update_facets (same order, same count) before asking for the next chunk,
-  // or the same chunk is handed out again.
+  // an empty result ends the round.  Their flags are cleared: update_facets
+  // sets them, for the oldest chunk not yet updated (same order and count).
+  // One update_facets may run while the next chunk is being computed.  An
+  // insert before the round is fully updated reports the round again.
   ChangedFacets changed_facets(std::size_t max_facets = 0);
   void update_facets(const std::uint8_t* flags, const double* centres,
                      std::size_t n);
@@ -128,12 +131,18 @@ class RestrictedDelaunay {
   double radius_;
   std::vector<Vertex_handle> samples_;
   std::vector<Vertex_handle> last_new_;
-  std::vector<std::pair<Cell_handle, int>> pending_;
-  std::vector<std::uint8_t> pending_swapped_;
+  // Chunks handed out and not yet updated, oldest first.  changed_facets may
+  // run in one thread while update_facets runs in another: they touch
+  // different facets, and the queue itself is guarded by the mutex.
+  struct Chunk {
+    std::vector<std::pair<Cell_handle, int>> facets;
+    std::vector<std::uint8_t> swapped;
+  };
+  std::deque<Chunk> pending_;
+  mutable std::mutex mutex_;
   std::vector<Vertex_handle> round_vertices_;  // inserted before this round
   std::vector<Cell_handle> fresh_;  // cells new in this round
   std::size_t cursor_ = 0;          // next cell of fresh_ to report
-  std::size_t chunk_start_ = 0;     // first cell of the pending chunk
   std::int32_t round_ = 0;
   std::int32_t call_ = 0;
   Vertex_handle hint_;

@@ -395,12 +395,19 @@ def test_chunks_cover_the_same_facets_as_one_call():
     many.check()
 
 
-def test_chunk_not_updated_is_handed_out_again():
+def test_chunks_are_updated_oldest_first():
     rdt = _rdt_new()
     rdt.insert(_sphere_points(500, 2))
     first = rdt.changed_facets(100)[0]
-    again = rdt.changed_facets(100)[0]
-    assert np.array_equal(first, again)
+    second = rdt.changed_facets(100)[0]
+    assert not _as_set(first) & _as_set(second)
+    wrong = len(first) + len(second) + 1
+    with pytest.raises(ValueError, match="oldest chunk"):
+        rdt.update_facets(np.zeros(wrong, np.uint8), np.zeros((wrong, 3)))
+    flag = np.uint8(RESTRICTED | OUTWARD)
+    rdt.update_facets(np.full(len(first), flag), np.zeros((len(first), 3)))
+    rdt.update_facets(np.full(len(second), flag), np.zeros((len(second), 3)))
+    assert _as_set(rdt.facets(0)[0]) == _as_set(first) | _as_set(second)
 
 
 def test_unfinished_round_is_reported_again_after_insert():

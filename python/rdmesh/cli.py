@@ -1,18 +1,56 @@
-"""The ``rdmesh`` command line: ``demo``, ``mesh`` and ``list``."""
+"""The ``rdmesh`` command line: ``mesh``, ``demo`` and ``list``.
+
+``rdmesh mesh SURFACE -o OUT`` meshes a built-in surface (``rdmesh list``) or
+an expression in x, y and z (``"x**2 + y**2 + z**2 - 1"``, with ``--bound R``
+or ``--sphere cx,cy,cz,R``) and writes the mesh in the format its extension
+names, and with ``--png`` a picture. ``rdmesh demo`` meshes a built-in surface
+and writes the mesh and a picture.
+
+Output: the summary goes to stdout; the progress bar (runs over a second),
+log messages and errors go to stderr. ``--quiet`` keeps stderr silent unless
+something goes wrong.
+
+Exit status
+-----------
+0
+    Success.
+1
+    A budget (``--max-vertices``, ``--time-limit``) stopped refinement; the
+    partial mesh was written and stderr says so.
+2
+    Bad input: unknown surface, bad expression, bad option, unwritable output,
+    a surface function that fails. One line on stderr, no traceback.
+130
+    Interrupted (Ctrl-C); the partial mesh was written if refinement had
+    started.
+
+This is the only module of rdmesh that prints.
+"""
 
 from __future__ import annotations
 
 import argparse
 import logging
+import math
 import os
 import sys
 
 from . import __version__, _rdt
-from ._errors import BudgetExceeded, RdmeshError
+from ._errors import BudgetExceeded, Interrupted, RdmeshError
 from .api import METHODS, mesh_surface
+from .expressions import CONSTANTS, VARIABLES, parse_expression
+from .oracles import ImplicitSurface
 from .refine import TOPOLOGIES
-from .result import MESH_FORMATS
+from .result import MESH_FORMATS, SurfaceMesh
 from .surfaces import SURFACES, get
+
+EXIT_OK, EXIT_BUDGET, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+log = logging.getLogger("rdmesh")
+
+
+class _CliError(Exception):
+    """A usage error: reported in one line, exit status 2."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -22,124 +60,315 @@ class _Parser(argparse.ArgumentParser):
         raise _CliError(message)
 
 
-class _CliError(Exception):
-    pass
+# -- option types -------------------------------------------------------------------
 
 
-def _positive_float(text: str) -> float:
+def _number(text: str) -> float:
     try:
         v = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not v > 0 or v == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be positive and finite: {text!r}")
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"must be finite: {text!r}")
     return v
+
+
+def _positive_float(text: str) -> float:
+    v = _number(text)
+    if v <= 0:
+        raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
+    return v
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1: {text!r}")
+    return v
+
+
+def _angle(text: str) -> float:
+    v = _number(text)
+    if not 0 <= v <= 30:
+        raise argparse.ArgumentTypeError(f"must be between 0 and 30 degrees: {text!r}")
+    return v
+
+
+def _sphere(text: str) -> tuple[tuple[float, float, float], float]:
+    parts = [p.strip() for p in text.split(",")]
+    if len(parts) != 4:
+        raise argparse.ArgumentTypeError(f"expected cx,cy,cz,R (4 numbers), got {text!r}")
+    cx, cy, cz = (_number(p) for p in parts[:3])
+    return (cx, cy, cz), _positive_float(parts[3])
+
+
+def _pixels(text: str) -> int:
+    v = _positive_int(text)
+    if not 16 <= v <= 10_000:
+        raise argparse.ArgumentTypeError(f"must be between 16 and 10000 pixels: {text!r}")
+    return v
+
+
+# -- the parser ---------------------------------------------------------------------
+
+_EPILOG = (
+    "exit status: 0 success; 1 a budget stopped the run (partial mesh written); "
+    "2 bad input; 130 interrupted (partial mesh written)"
+)
+
+
+def _add_output_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--png-size",
+        type=_pixels,
+        default=800,
+        metavar="PIXELS",
+        help="width and height of the picture (default 800)",
+    )
+    p.add_argument(
+        "--quiet",
+        "-q",
+        action="store_true",
+        help="nothing on stderr but errors: no progress bar, no log messages",
+    )
+    p.add_argument("--verbose", "-v", action="store_true", help="log every round on stderr")
 
 
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(
-        prog="rdmesh", description="Mesh implicit surfaces by restricted Delaunay refinement."
+        prog="rdmesh",
+        description="Mesh implicit surfaces f(x, y, z) = 0 by restricted Delaunay refinement.",
+        epilog=_EPILOG,
     )
     p.add_argument(
         "--version", action="version", version=f"rdmesh {__version__} (CGAL {_rdt.CGAL_VERSION})"
     )
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    demo = sub.add_parser("demo", help="mesh a built-in surface, write the mesh and a picture")
-    demo.add_argument(
-        "--surface", default="tanglecube", help="built-in surface (default tanglecube)"
+    mesh = sub.add_parser(
+        "mesh",
+        help="mesh a built-in surface or an expression in x, y and z",
+        description=(
+            "Mesh SURFACE: a built-in surface (see 'rdmesh list') or an expression in x, y "
+            "and z that is negative inside, such as 'x**2 + y**2 + z**2 - 1', with --bound "
+            "or --sphere. Expressions use numbers, x y z, pi e tau, + - * / ** and math "
+            "functions (sin cos tan exp log sqrt abs min max hypot atan2 ...). Quote them; "
+            "put '--' before one that starts with '-'. For a built-in surface, --bound or "
+            "--sphere replaces its bounding sphere."
+        ),
+        epilog=_EPILOG,
     )
-    demo.add_argument(
-        "-o", "--output", default="out/demo.ply", help="mesh file (default out/demo.ply)"
+    mesh.add_argument("surface", metavar="SURFACE", help="built-in name or expression")
+    mesh.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        metavar="OUT",
+        help=f"mesh file; format by extension: {' '.join(MESH_FORMATS)}",
     )
-    demo.add_argument("--png", default="out/demo.png", help="picture (default out/demo.png)")
-    demo.add_argument("--quiet", action="store_true", help="no log output")
-
-    mesh = sub.add_parser("mesh", help="mesh a built-in surface")
-    mesh.add_argument("surface", help="built-in surface name (see 'rdmesh list')")
-    mesh.add_argument("-o", "--output", required=True, help="mesh file: .ply .obj .stl .off .glb")
-    mesh.add_argument("--angle", type=float, default=30.0, help="angle bound in degrees (<= 30)")
-    mesh.add_argument("--radius", type=_positive_float, help="surface Delaunay ball radius bound")
-    mesh.add_argument("--distance", type=_positive_float, help="centre-to-surface distance bound")
+    where = mesh.add_mutually_exclusive_group()
+    where.add_argument(
+        "--bound",
+        type=_positive_float,
+        metavar="R",
+        help="bounding sphere of radius R about the origin",
+    )
+    where.add_argument(
+        "--sphere",
+        type=_sphere,
+        metavar="CX,CY,CZ,R",
+        help="bounding sphere (write --sphere=-1,0,0,2 if CX is negative)",
+    )
+    mesh.add_argument(
+        "--angle",
+        type=_angle,
+        default=30.0,
+        metavar="A",
+        help="smallest angle in degrees, at most 30 (default 30; 0 = off)",
+    )
+    mesh.add_argument(
+        "--radius",
+        type=_positive_float,
+        metavar="R",
+        help="largest surface Delaunay ball radius (default bound/20)",
+    )
+    mesh.add_argument(
+        "--distance",
+        type=_positive_float,
+        metavar="D",
+        help="largest centre-to-surface distance (default off)",
+    )
     mesh.add_argument("--method", default="boissonnat-oudot", choices=METHODS)
     mesh.add_argument("--topology", default="manifold", choices=TOPOLOGIES)
-    mesh.add_argument("--seed", type=int, default=0)
-    mesh.add_argument("--max-vertices", type=int)
-    mesh.add_argument("--time-limit", type=_positive_float, help="seconds")
-    mesh.add_argument("--png", help="also write a picture")
-    mesh.add_argument("--quiet", action="store_true", help="no log output")
+    mesh.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    mesh.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=1,
+        metavar="N",
+        help="threads evaluating the surface at once (default 1)",
+    )
+    mesh.add_argument(
+        "--max-vertices",
+        type=_positive_int,
+        metavar="N",
+        help="stop at N vertices; the partial mesh is written, exit status 1",
+    )
+    mesh.add_argument(
+        "--time-limit",
+        type=_positive_float,
+        metavar="SECONDS",
+        help="stop after about this long; partial mesh written, exit status 1",
+    )
+    mesh.add_argument("--png", metavar="PNG", help="also write a shaded picture")
+    _add_output_options(mesh)
+
+    demo = sub.add_parser(
+        "demo", help="mesh a built-in surface, write the mesh and a picture", epilog=_EPILOG
+    )
+    demo.add_argument(
+        "--surface",
+        default="tanglecube",
+        help="built-in surface (default tanglecube; see 'rdmesh list')",
+    )
+    demo.add_argument(
+        "-o",
+        "--output",
+        default="out/demo.ply",
+        metavar="OUT",
+        help="mesh file (default out/demo.ply)",
+    )
+    demo.add_argument("--png", default="out/demo.png", help="picture (default out/demo.png)")
+    _add_output_options(demo)
 
     sub.add_parser("list", help="list the built-in surfaces")
     return p
 
 
-def _check_writable(path: str, mesh: bool = True) -> None:
+# -- running --------------------------------------------------------------------------
+
+
+def _check_writable(path: str, picture: bool = False) -> None:
+    """Fail early, before meshing, if ``path`` cannot be written."""
     ext = os.path.splitext(path)[1].lower().lstrip(".")
-    if mesh and ext not in MESH_FORMATS:
+    if picture and ext != "png":
+        raise _CliError(f"the picture {path!r} must end in .png")
+    if not picture and ext not in MESH_FORMATS:
         raise _CliError(
             f"cannot write {path!r}: unknown mesh format {ext!r}; use one of "
             f"{', '.join(MESH_FORMATS)}"
         )
-    if not mesh and ext != "png":
-        raise _CliError(f"the picture {path!r} must end in .png")
+    if os.path.isdir(path):
+        raise _CliError(f"cannot write {path!r}: it is a folder")
     folder = os.path.dirname(os.path.abspath(path))
     try:
         os.makedirs(folder, exist_ok=True)
     except OSError as exc:
         raise _CliError(f"cannot create folder {folder!r}: {exc.strerror}") from None
     if not os.access(folder, os.W_OK):
-        raise _CliError(f"cannot write to {folder!r}")
+        raise _CliError(f"cannot write to folder {folder!r}: permission denied")
 
 
-def _write(mesh, args) -> None:
+def _surface(args) -> ImplicitSurface:
+    """The built-in surface or the expression named by SURFACE."""
+    text = args.surface.strip()
+    sphere = args.sphere
+    if args.bound is not None:
+        sphere = ((0.0, 0.0, 0.0), args.bound)
+    key = text.lower().replace("-", "_").replace(" ", "_")
+    if key in SURFACES:
+        surface = SURFACES[key].make()
+        if sphere is None:
+            return surface
+        return ImplicitSurface(surface.f, sphere, gradient=surface.gradient, name=surface.name)
+    if text.isidentifier() and text not in VARIABLES and text not in CONSTANTS:
+        raise _CliError(
+            f"unknown surface {args.surface!r}: built-in surfaces are {', '.join(SURFACES)}; "
+            "or give an expression in x, y and z with --bound or --sphere"
+        )
+    parse_expression(text)  # report a bad expression before a missing sphere
+    if sphere is None:
+        raise _CliError(
+            f"the expression {text!r} needs a bounding sphere: give --bound R or "
+            "--sphere cx,cy,cz,R"
+        )
+    return ImplicitSurface.from_expression(text, bounding_sphere=sphere)
+
+
+def _write(mesh: SurfaceMesh, args, title: str) -> str:
+    """Write the mesh (and picture); returns what was written, for the messages."""
     mesh.save(args.output)
-    if args.png:
-        from .render import render
+    if not args.png:
+        return args.output
+    mesh.render(args.png, title=title, size=args.png_size)
+    return f"{args.output} and {args.png}"
 
-        render(mesh.vertices, mesh.faces, args.png, title=getattr(args, "title", None))
 
+def _run(args, surface: ImplicitSurface, **opts) -> int:
+    from .progress import ProgressBar
 
-def _run_mesh(args, surface_name: str, **opts) -> int:
-    surface = get(surface_name)
     _check_writable(args.output)
     if args.png:
-        _check_writable(args.png, mesh=False)
-    from .result import SurfaceMesh
-
-    args.title = surface.name
+        _check_writable(args.png, picture=True)
+    name = surface.name if len(surface.name) <= 60 else surface.name[:57] + "..."
+    log.info(
+        "meshing %s (bounding sphere %s, radius %g)", name, surface.centre.tolist(), surface.radius
+    )
+    total = opts.get("max_vertices")
     try:
-        mesh: SurfaceMesh = mesh_surface(surface, **opts)
+        with ProgressBar(total=total, disable=args.quiet) as bar:
+            mesh = mesh_surface(surface, progress=bar.update, **opts)
     except BudgetExceeded as exc:
-        _write(exc.mesh, args)
+        interrupted = isinstance(exc, Interrupted)
+        why = "interrupted" if interrupted else f"stopped early ({exc.reason or exc})"
+        status = EXIT_INTERRUPTED if interrupted else EXIT_BUDGET
+        if exc.mesh is None:
+            print(f"rdmesh: {why}; no mesh to write", file=sys.stderr)
+            return status
+        wrote = _write(exc.mesh, args, f"{name} (partial)")
         print(exc.mesh.summary())
-        print(f"rdmesh: {exc}; wrote the partial mesh to {args.output}", file=sys.stderr)
-        return 1
-    _write(mesh, args)
-    print(f"{surface.name}: wrote {args.output}" + (f" and {args.png}" if args.png else ""))
+        print(f"rdmesh: {why}; wrote the partial mesh to {wrote}", file=sys.stderr)
+        return status
+    wrote = _write(mesh, args, name)
+    print(f"{name}: wrote {wrote}")
     print(mesh.summary())
-    return 0
+    return EXIT_OK
+
+
+def _list() -> int:
+    for name, info in SURFACES.items():
+        print(
+            f"{name:14s} {info.description} (components {info.components}, "
+            f"Euler characteristic {info.euler})"
+        )
+    return EXIT_OK
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit status."""
+    """Run the command line with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    logger = logging.getLogger("rdmesh")
+    level = logger.level
     try:
         args = _parser().parse_args(argv)
-        if getattr(args, "quiet", False):
-            logging.getLogger("rdmesh").setLevel(logging.ERROR)
-        else:
-            logging.basicConfig(level=logging.WARNING, format="rdmesh: %(message)s")
         if args.command == "list":
-            for name, info in SURFACES.items():
-                print(
-                    f"{name:14s} {info.description} (components {info.components}, "
-                    f"Euler characteristic {info.euler})"
-                )
-            return 0
+            return _list()
+        logging.basicConfig(level=logging.WARNING, format="rdmesh: %(message)s")
+        if args.quiet:
+            logger.setLevel(logging.ERROR)
+        elif args.verbose:
+            logger.setLevel(logging.DEBUG)
         if args.command == "demo":
-            return _run_mesh(args, args.surface, angle_bound=30.0)
-        return _run_mesh(
+            return _run(args, get(args.surface))
+        return _run(
             args,
-            args.surface,
+            _surface(args),
             angle_bound=args.angle,
             radius_bound=args.radius,
             distance_bound=args.distance,
@@ -148,13 +377,16 @@ def main(argv: list[str] | None = None) -> int:
             seed=args.seed,
             max_vertices=args.max_vertices,
             time_limit=args.time_limit,
+            workers=args.workers,
         )
     except KeyboardInterrupt:
         print("rdmesh: interrupted", file=sys.stderr)
-        return 130
-    except (_CliError, ValueError, RdmeshError, OSError) as exc:
-        print(f"rdmesh: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_INTERRUPTED
+    except (_CliError, ValueError, RdmeshError, OSError, ImportError) as exc:
+        print(f"rdmesh: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_USAGE
+    finally:
+        logger.setLevel(level)
 
 
 if __name__ == "__main__":  # pragma: no cover

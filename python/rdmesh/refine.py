@@ -200,22 +200,26 @@ class Refiner:
     def _update(self, st: _State) -> None:
         """Evaluate the facets whose dual changed and hand the flags to C++.
 
-        The core hands out the changed facets in chunks, which bounds the
-        memory of a round. ``f`` is evaluated once for all Voronoi vertices of
-        a chunk, then once for all samples of each slice; with ``workers > 1``
-        slices run in threads (numpy releases the GIL).
+        The core hands out the changed facets in chunks (bounded memory).
+        While Python evaluates one chunk, the core computes the next in a
+        background thread with the GIL released, so both cores work. ``f`` is
+        evaluated once for all Voronoi vertices of a chunk, then once for all
+        samples of each slice.
         """
-        while True:
-            with _timed(st, "changed_facets"):
-                tri, seg, end_index, ends, rho = st.rdt.changed_facets(CORE_CHUNK)
-            k = len(tri)
-            if k == 0:
-                return
-            with _timed(st, "evaluate"):
-                flags, centres = self._evaluate(st, tri, seg, self.surface(ends)[end_index], rho)
-            with _timed(st, "update_facets"):
-                st.rdt.update_facets(flags, centres)
-            st.changed += k
+        with ThreadPoolExecutor(1) as core:
+            job = core.submit(st.rdt.changed_facets, CORE_CHUNK)
+            while True:
+                with _timed(st, "changed_facets"):
+                    tri, seg, end_index, ends, rho = job.result()
+                if len(tri) == 0:
+                    return
+                job = core.submit(st.rdt.changed_facets, CORE_CHUNK)
+                with _timed(st, "evaluate"):
+                    end_f = self.surface(ends)[end_index]
+                    flags, centres = self._evaluate(st, tri, seg, end_f, rho)
+                with _timed(st, "update_facets"):
+                    st.rdt.update_facets(flags, centres)
+                st.changed += len(tri)
 
     def _evaluate(self, st, tri, seg, end_f, rho):
         """Flags (restricted, bad, topology, outward) and surface centres."""

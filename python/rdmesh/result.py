@@ -108,6 +108,18 @@ class SurfaceMesh:
             )
         self.to_trimesh().export(path)
 
+    def render(
+        self, path: str | os.PathLike, *, title: str | None = None, size: int = 800
+    ) -> None:
+        """Write a shaded picture of the mesh (PNG by extension) with headless matplotlib.
+
+        ``size`` is the width and height in pixels. Needs matplotlib
+        (``pip install 'rdmesh[render]'``); see :func:`rdmesh.render.render`.
+        """
+        from .render import render
+
+        render(self.vertices, self.faces, path, title=title, size=size)
+
     def summary(self) -> str:
         """A few lines: size, angles, topology, time."""
         topo = self.topology()
