@@ -34,12 +34,15 @@ from pathlib import Path
 from typing import Any
 
 __all__ = [
+    "BOUNDING_SPHERES",
     "DEFAULT_BUILD_DIR",
     "MESHERS",
     "SOURCE_DIR",
     "SURFACES",
     "CgalReferenceError",
     "build_reference",
+    "parse_reference_output",
+    "reference_command",
     "run_reference",
 ]
 
@@ -61,6 +64,21 @@ SURFACES = (
     "two_spheres",
     "blob_line",
 )
+
+#: Bounding sphere ((cx, cy, cz), r) the program hands to CGAL for each surface
+#: (the table in cgal_reference.cpp): the centre is inside the surface, as
+#: CGAL's initial-point search needs.  Other CGAL front ends that take a
+#: sphere about the origin (pygalmesh) can translate the function by it.
+BOUNDING_SPHERES = {
+    "sphere": ((0.0, 0.0, 0.0), 2.0),
+    "ellipsoid": ((0.0, 0.0, 0.0), 2.0),
+    "torus": ((1.0, 0.0, 0.0), 2.5),
+    "thin_torus": ((1.0, 0.0, 0.0), 2.2),
+    "double_torus": ((1.0, 0.0, 0.0), 1.5),
+    "tanglecube": ((1.25, 1.25, 1.25), 6.0),
+    "two_spheres": ((1.05, 0.0, 0.0), 3.2),
+    "blob_line": ((0.0, 0.0, 0.0), 2.0),
+}
 
 # Keys every successful run prints.
 _REQUIRED_KEYS = (
@@ -190,6 +208,83 @@ def _number(name: str, value: float) -> str:
     return repr(v)
 
 
+def reference_command(
+    exe: PathLike,
+    mesher: str,
+    surface: str,
+    angle: float,
+    radius: float,
+    distance: float,
+    error_bound: float | None = None,
+    *,
+    seed: int | None = None,
+    out: PathLike | None = None,
+) -> list[str]:
+    """The command line that runs the program once (see :func:`run_reference`).
+
+    Raises ValueError for an unknown mesher or surface or a non-finite number.
+    """
+    if mesher not in MESHERS:
+        raise ValueError(f"unknown mesher {mesher!r}; expected one of {MESHERS}")
+    if surface not in SURFACES:
+        raise ValueError(f"unknown surface {surface!r}; expected one of {SURFACES}")
+    cmd = [
+        str(exe),
+        "--mesher", mesher,
+        "--surface", surface,
+        "--angle", _number("angle", angle),
+        "--radius", _number("radius", radius),
+        "--distance", _number("distance", distance),
+    ]  # fmt: skip
+    if error_bound is not None:
+        cmd += ["--error-bound", _number("error_bound", error_bound)]
+    if seed is not None:
+        cmd += ["--seed", str(int(seed))]
+    if out is not None:
+        cmd += ["--out", str(out)]
+    return cmd
+
+
+def parse_reference_output(
+    returncode: int, stdout: str, stderr: str, what: str = "cgal_reference"
+) -> dict[str, Any]:
+    """Turn one finished run of the program into its JSON result.
+
+    Raises ValueError for exit code 2 (arguments rejected) and
+    CgalReferenceError for any other failure or unreadable output.
+    """
+    if returncode == 2:
+        first = stderr.strip().splitlines()[:1]
+        raise ValueError(first[0] if first else "cgal_reference rejected its arguments")
+    if returncode != 0:
+        raise CgalReferenceError(
+            f"{what} failed (exit {returncode}): {stderr.strip()}",
+            returncode=returncode,
+            stdout=stdout,
+            stderr=stderr,
+        )
+    lines = [line for line in stdout.splitlines() if line.strip()]
+    try:
+        result = json.loads(lines[-1])
+    except (IndexError, json.JSONDecodeError) as exc:
+        raise CgalReferenceError(
+            f"unexpected output from {what}: {stdout!r}",
+            returncode=returncode,
+            stdout=stdout,
+            stderr=stderr,
+        ) from exc
+    if not isinstance(result, dict) or any(k not in result for k in _REQUIRED_KEYS):
+        raise CgalReferenceError(
+            f"incomplete result from {what}: {result!r}",
+            returncode=returncode,
+            stdout=stdout,
+            stderr=stderr,
+        )
+    if stderr.strip():
+        logger.debug("stderr of %s: %s", what, stderr.strip())
+    return result
+
+
 def run_reference(
     exe: PathLike,
     mesher: str,
@@ -215,25 +310,9 @@ def run_reference(
     CgalReferenceError for any other failure, including a run longer than
     ``timeout`` seconds (the process is killed then; None = no limit).
     """
-    if mesher not in MESHERS:
-        raise ValueError(f"unknown mesher {mesher!r}; expected one of {MESHERS}")
-    if surface not in SURFACES:
-        raise ValueError(f"unknown surface {surface!r}; expected one of {SURFACES}")
-    cmd = [
-        str(exe),
-        "--mesher", mesher,
-        "--surface", surface,
-        "--angle", _number("angle", angle),
-        "--radius", _number("radius", radius),
-        "--distance", _number("distance", distance),
-    ]  # fmt: skip
-    if error_bound is not None:
-        cmd += ["--error-bound", _number("error_bound", error_bound)]
-    if seed is not None:
-        cmd += ["--seed", str(int(seed))]
-    if out is not None:
-        cmd += ["--out", str(out)]
-
+    cmd = reference_command(
+        exe, mesher, surface, angle, radius, distance, error_bound, seed=seed, out=out
+    )
     logger.debug("run: %s", " ".join(cmd))
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
@@ -245,34 +324,6 @@ def run_reference(
         ) from exc
     except OSError as exc:
         raise CgalReferenceError(f"cannot run {exe}: {exc}") from exc
-
-    if proc.returncode == 2:
-        first = proc.stderr.strip().splitlines()[:1]
-        raise ValueError(first[0] if first else "cgal_reference rejected its arguments")
-    if proc.returncode != 0:
-        raise CgalReferenceError(
-            f"{mesher} on {surface} failed (exit {proc.returncode}): {proc.stderr.strip()}",
-            returncode=proc.returncode,
-            stdout=proc.stdout,
-            stderr=proc.stderr,
-        )
-    lines = [line for line in proc.stdout.splitlines() if line.strip()]
-    try:
-        result = json.loads(lines[-1])
-    except (IndexError, json.JSONDecodeError) as exc:
-        raise CgalReferenceError(
-            f"unexpected output from {exe}: {proc.stdout!r}",
-            returncode=proc.returncode,
-            stdout=proc.stdout,
-            stderr=proc.stderr,
-        ) from exc
-    if not isinstance(result, dict) or any(k not in result for k in _REQUIRED_KEYS):
-        raise CgalReferenceError(
-            f"incomplete result from {exe}: {result!r}",
-            returncode=proc.returncode,
-            stdout=proc.stdout,
-            stderr=proc.stderr,
-        )
-    if proc.stderr.strip():
-        logger.debug("stderr of %s on %s: %s", mesher, surface, proc.stderr.strip())
-    return result
+    return parse_reference_output(
+        proc.returncode, proc.stdout, proc.stderr, what=f"{mesher} on {surface}"
+    )

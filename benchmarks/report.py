@@ -1,0 +1,362 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Markdown report of a benchmark-suite result.
+
+``build(results, plots)`` returns the whole report; ``tables(results)`` only
+the performance, quality and target tables (what ``suite.py`` prints);
+``targets(results)`` evaluates the issue's performance targets.
+
+Regenerate the report and plots of an earlier run from its JSON::
+
+    python benchmarks/report.py benchmarks/results/2025-01-31.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+__all__ = ["build", "tables", "targets"]
+
+#: Peak memory every 1M-vertex run must stay within (the machine's size).
+MEMORY_LIMIT_MB = 24 * 1024
+TARGET_MIN_SIZE = 100_000
+BIG_SIZE = 1_000_000
+
+
+def _f(x, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if isinstance(x, int):
+        return f"{x:,}"
+    if x == 0:
+        return "0"
+    if abs(x) >= 1000:
+        return f"{x:,.0f}"
+    return f"{x:.{digits}g}"
+
+
+def _e(x) -> str:
+    return "–" if x is None else f"{x:.2e}"
+
+
+def _size(n: int) -> str:
+    if n >= 1_000_000 and n % 1_000_000 == 0:
+        return f"{n // 1_000_000}M"
+    if n >= 1000 and n % 1000 == 0:
+        return f"{n // 1000}k"
+    return str(n)
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join(" --- " for _ in header) + "|"]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def _status(c: dict) -> str:
+    s = c.get("status", "?")
+    if s == "ok":
+        summ = c.get("summary") or {}
+        n, total = summ.get("n_ok", 0), summ.get("n_runs", 0)
+        return "ok" if n == total else f"ok ({n}/{total})"
+    note = c.get("note")
+    if not note:
+        errs = [r.get("error") for r in c.get("runs", []) if r.get("error")]
+        note = errs[-1] if errs else None
+    if note:
+        note = note.replace("|", "/").replace("\n", " ")
+        if len(note) > 90:
+            note = note[:87] + "..."
+        return f"{s}: {note}"
+    return s
+
+
+def _find(results: dict, surface: str, size: int, mesher: str) -> dict | None:
+    for c in results.get("cases", []):
+        if c["surface"] == surface and c["size"] == size and c["mesher"] == mesher:
+            return c
+    return None
+
+
+# ---------------------------------------------------------------------------
+# Tables
+# ---------------------------------------------------------------------------
+
+
+def performance_table(results: dict) -> str:
+    header = ["surface", "size", "mesher", "status", "vertices", "faces", "time (s)",
+              "vertices/s", "peak RSS (MB)", "evaluations", "eval./vertex"]  # fmt: skip
+    rows = []
+    for c in results.get("cases", []):
+        s = c.get("summary") or {}
+        n = s.get("n_ok", 0)
+        t = _f(s.get("seconds"))
+        if n > 1:
+            t += f" (med. {n})"
+        rows.append([
+            c["surface"], _size(c["size"]), c["mesher"], _status(c),
+            _f(s.get("vertices")), _f(s.get("faces")), t if s else "–",
+            _f(s.get("vertices_per_second")), _f(s.get("peak_rss_mb")),
+            _f(s.get("evaluations")), _f(s.get("evaluations_per_vertex")),
+        ])  # fmt: skip
+    return _table(header, rows)
+
+
+def quality_table(results: dict) -> str:
+    header = ["surface", "size", "mesher", "min angle", "angles < 30°", "closed manifold",
+              "components (exp.)", "Euler (exp.)", "topology", "Hausdorff", "H / r",
+              "mesh→surface", "surface→mesh", "vertex offset"]  # fmt: skip
+    rows = []
+    for c in results.get("cases", []):
+        q = c.get("quality")
+        if c.get("status") != "ok" or not q:
+            continue
+        if "error" in q:
+            err = f"metrics failed: {q['error']}"
+            rows.append([c["surface"], _size(c["size"]), c["mesher"], err]
+                        + ["–"] * (len(header) - 4))  # fmt: skip
+            continue
+        t = q.get("topology") or {}
+        h = q.get("hausdorff") or {}
+        r = (c.get("params") or {}).get("radius")
+        two = h.get("two_sided")
+        frac = q.get("frac_angles_below_30")
+        ok = t.get("topology_ok")
+        rows.append([
+            c["surface"], _size(c["size"]), c["mesher"],
+            _f(q.get("min_angle"), 4) + "°" if q.get("min_angle") is not None else "–",
+            f"{100 * frac:.3g} %" if frac is not None else "–",
+            _f(t.get("closed_manifold")),
+            f"{t.get('components')} ({t.get('expected_components')})",
+            f"{t.get('euler')} ({t.get('expected_euler')})",
+            "ok" if ok else ("WRONG" if ok is False else "–"),
+            _e(two), _f(two / r, 2) if (two is not None and r) else "–",
+            _e((h.get("mesh_to_surface") or {}).get("max")),
+            _e((h.get("surface_to_mesh") or {}).get("max")),
+            _e(h.get("vertex_to_surface_max")),
+        ])  # fmt: skip
+    return _table(header, rows)
+
+
+def targets(results: dict) -> list[dict[str, Any]]:
+    """The issue's targets at every measured size >= 100k, as a list of checks.
+
+    Each check: ``surface``, ``size``, ``target``, ``value`` (a ratio or MB),
+    ``passed`` (True/False, None when a needed run is missing) and ``note``.
+    """
+    out: list[dict[str, Any]] = []
+    cases = results.get("cases", [])
+    keys = sorted({(c["surface"], c["size"]) for c in cases}, key=lambda k: (k[1], k[0]))
+    for surface, size in keys:
+        if size < TARGET_MIN_SIZE:
+            continue
+        rd = _find(results, surface, size, "rdmesh")
+        m3 = _find(results, surface, size, "cgal_mesh_3")
+        pg = _find(results, surface, size, "pygalmesh")
+
+        def summ(c):
+            return c.get("summary") if c and c.get("status") == "ok" else None
+
+        srd, sm3, spg = summ(rd), summ(m3), summ(pg)
+
+        def check(target, value, passed, note=None, unit="x", surface=surface, size=size):
+            out.append({"surface": surface, "size": size, "target": target, "value": value,
+                        "unit": unit, "passed": passed, "note": note})  # fmt: skip
+
+        if srd and sm3:
+            ratio = srd["seconds"] / sm3["seconds"]
+            check("rdmesh time <= 0.5 x make_mesh_3", ratio, ratio <= 0.5,
+                  f"{srd['vertices']:,} vs {sm3['vertices']:,} vertices")  # fmt: skip
+            if srd.get("peak_rss_mb") and sm3.get("peak_rss_mb"):
+                mem = srd["peak_rss_mb"] / sm3["peak_rss_mb"]
+                check("rdmesh peak RSS <= make_mesh_3", mem, mem <= 1.0,
+                      f"{srd['peak_rss_mb']:.0f} vs {sm3['peak_rss_mb']:.0f} MB")  # fmt: skip
+            else:
+                check("rdmesh peak RSS <= make_mesh_3", None, None, "peak RSS not measured")
+        else:
+            why = "rdmesh" if not srd else "make_mesh_3"
+            check("rdmesh time <= 0.5 x make_mesh_3", None, None, f"no successful {why} run")
+            check("rdmesh peak RSS <= make_mesh_3", None, None, f"no successful {why} run")
+        if srd and spg:
+            speed = spg["seconds"] / srd["seconds"]
+            check("rdmesh >= 100 x faster than pygalmesh", speed, speed >= 100,
+                  f"{spg['seconds']:.1f} s vs {srd['seconds']:.1f} s")  # fmt: skip
+        else:
+            note = (pg or {}).get("note") or ("no successful run" if pg else "not run")
+            if pg and pg.get("status") == "timeout" and srd:
+                # A timeout still bounds the speed-up from below.
+                st = results.get("settings") or {}
+                lim = st.get("pygalmesh_timeout") or st.get("timeout")
+                note = (
+                    f"pygalmesh timed out; speed-up > {lim / srd['seconds']:.0f}" if lim else note
+                )
+            check("rdmesh >= 100 x faster than pygalmesh", None, None, note)
+        if size >= BIG_SIZE:
+            for c in (rd, m3, _find(results, surface, size, "cgal_surface_mesher")):
+                if c is None:
+                    continue
+                s = summ(c)
+                target = f"{c['mesher']} completes 1M within 24 GB"
+                if s and s.get("peak_rss_mb") is not None:
+                    check(target, s["peak_rss_mb"], s["peak_rss_mb"] <= MEMORY_LIMIT_MB,
+                          None, "MB")  # fmt: skip
+                else:
+                    check(target, None, False if c.get("status") in ("failed", "timeout")
+                          else None, _status(c), "MB")  # fmt: skip
+    return out
+
+
+def targets_table(results: dict) -> str:
+    checks = results.get("targets") or targets(results)
+    if not checks:
+        return "_No size >= 100k was run; the targets apply from 100k vertices on._"
+    rows = []
+    for t in checks:
+        v = t["value"]
+        if v is None:
+            val = "–"
+        elif t.get("unit") == "MB":
+            val = f"{v:,.0f} MB"
+        else:
+            val = f"{v:.3g}x"
+        res = {True: "**pass**", False: "**FAIL**", None: "not measured"}[t["passed"]]
+        rows.append([t["surface"], _size(t["size"]), t["target"], val, res, t.get("note") or ""])
+    return _table(["surface", "size", "target", "measured", "result", "note"], rows)
+
+
+def tables(results: dict) -> str:
+    """Performance, quality and targets tables, as markdown."""
+    return "\n\n".join([
+        "### Performance", performance_table(results),
+        "### Quality", quality_table(results),
+        "### Targets (sizes >= 100k)", targets_table(results),
+    ])  # fmt: skip
+
+
+# ---------------------------------------------------------------------------
+# The whole report
+# ---------------------------------------------------------------------------
+
+
+def _setup(results: dict) -> str:
+    s = results.get("settings", {})
+    m = results.get("machine", {})
+    v = results.get("versions", {})
+    lines = [
+        f"- date: {results.get('date')}; total time {_f(results.get('seconds'))} s"
+        + ("" if results.get("finished") else " (**interrupted: partial results**)"),
+        f"- machine: {m.get('cpu', '?')}, {m.get('cores')} cores, {m.get('memory_gb')} GB; "
+        f"{m.get('platform')}; load average at start "
+        f"{', '.join(f'{x:.2f}' for x in m.get('loadavg_start', []))}",
+        "- versions: " + ", ".join(f"{k} {val}" for k, val in v.items() if val),
+        f"- command: `{' '.join(results.get('command', []))}`",
+        f"- criteria: angle {s.get('angle')}°, radius bound r from calibration, "
+        f"distance bound = r, seed {s.get('seed')}",
+        f"- repeats: {s.get('repeats')} (pygalmesh: {s.get('pygalmesh_repeats')}, sizes up to "
+        f"{_size(s.get('pygalmesh_max_size', 0))}); meshers alternate run by run, the median "
+        f"time is reported; timeout {s.get('timeout')} s per run",
+        f"- CGAL oracle error bound {s.get('cgal_error_bound')} (relative to the bounding "
+        f"sphere); pygalmesh uses CGAL's default 1e-3 and `Non_manifold_tag`",
+        f"- Hausdorff reference: {s.get('reference_samples'):,} points on each surface"
+        if s.get("reference_samples")
+        else "",
+    ]
+    for mesher, why in (results.get("unavailable") or {}).items():
+        lines.append(f"- **{mesher} not run**: {why}")
+    return "\n".join(ln for ln in lines if ln)
+
+
+def _calibration(results: dict) -> str:
+    rows = []
+    cal = results.get("calibration", {})
+    sizes = sorted({c["size"] for c in results.get("cases", [])})
+    for surface, c in cal.items():
+        radii = ", ".join(f"{_size(n)}: {math.sqrt(c['C'] * c['area'] / n):.4g}" for n in sizes)
+        rows.append([surface, _f(c["area"]), _f(c["vertices"]), _f(c["radius"], 4),
+                     _f(c["C"]), radii])  # fmt: skip
+    return _table(["surface", "area", "calibration vertices", "at radius", "C = V r² / A",
+                   "radius bound per size"], rows)  # fmt: skip
+
+
+_METHOD = """\
+- **Time** is the wall time of the meshing call inside its process: rdmesh's
+  `mesh_surface`, CGAL's `make_surface_mesh` / `make_mesh_3` (timed by the
+  reference program), pygalmesh's `generate_surface_mesh` (including its OFF
+  round trip), and for marching cubes the evaluation of f on the grid plus
+  `marching_cubes`.  Process start and imports are not included.
+- **Peak RSS** is the maximum resident set size of the whole child process
+  (`wait4`), so the Python meshers include the interpreter and numpy/scipy
+  (about 100 MB).
+- **Evaluations**: points at which f was evaluated (rdmesh: its counter,
+  gradients included; CGAL and pygalmesh: calls of the function; marching
+  cubes: grid points).
+- **Angles**: the three angles of every triangle; "min angle" is the smallest,
+  "angles < 30°" the share of all angles below 30°.
+- **Topology**: closed manifold (every edge in two triangles, one fan per
+  vertex), connected components and Euler characteristic V - E + F against
+  the surface's (sphere 2, torus 0, double torus -2, tanglecube -8, two
+  spheres 2 + 2).
+- **Hausdorff**: mesh→surface from vertices, face centroids and F random
+  area-weighted points, each projected on f = 0 by Newton along its gradient
+  line; surface→mesh from reference points (a fine marching-cubes mesh
+  projected on f = 0) to the nearest of 16 candidate triangles, exactly.
+  "H / r" divides the two-sided value by the radius bound; "vertex offset" is
+  how far the vertices themselves are from f = 0 (oracle accuracy).
+  See `benchmarks/metrics.py`.
+"""
+
+
+def build(results: dict, plots: dict[str, str] | None = None) -> str:
+    """The full markdown report; ``plots`` maps plot names to file names."""
+    plots = plots or {}
+    parts = [
+        "# rdmesh benchmark suite",
+        _setup(results),
+        "## Calibration",
+        "Target vertex counts map to a radius bound through vertices ≈ C · area / r², "
+        "with C from an rdmesh run on each surface. CGAL and pygalmesh get the same r; "
+        "marching cubes a grid spacing h = sqrt(1.5 · area / N).",
+        _calibration(results),
+        tables(results).replace("### ", "## "),
+    ]
+    titles = {
+        "time": "Time against vertices",
+        "memory": "Peak memory against vertices",
+        "hausdorff": "Hausdorff distance against vertices",
+        "angles": "Smallest-angle histograms",
+    }
+    if plots:
+        parts.append("## Plots")
+        for key, name in plots.items():
+            parts.append(f"### {titles.get(key, key)}\n\n![{key}]({name})")
+    parts += ["## How it is measured", _METHOD]
+    return "\n\n".join(parts) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    import json
+
+    p = argparse.ArgumentParser(description="Rebuild the report and plots of a suite run.")
+    p.add_argument("results", type=Path, help="a JSON file written by suite.py")
+    args = p.parse_args(argv)
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import plots as plotting
+
+    results = json.loads(args.results.read_text())
+    results["targets"] = targets(results)
+    stem = args.results.stem
+    files = plotting.render_all(results, args.results.parent, stem)
+    md = build(results, {k: p.name for k, p in files.items()})
+    out = args.results.with_suffix(".md")
+    out.write_text(md)
+    print(out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
