@@ -13,6 +13,11 @@ facet size.
     python benchmarks/bench_vs_cgal.py                 # torus + tanglecube, 0.005 R
     python benchmarks/bench_vs_cgal.py --quick         # coarse, one repeat
     python benchmarks/bench_vs_cgal.py --surfaces torus --fraction 0.0025 --repeats 5
+    python benchmarks/bench_vs_cgal.py --quick --methods boissonnat-oudot topological-ball
+
+``--methods`` picks rdmesh's refinement methods (labels ``rdmesh`` and
+``rdmesh_tb``), run at the same final criteria; the table's ratio column is
+relative to the first one, and with both methods a line gives TB/BO time.
 """
 
 from __future__ import annotations
@@ -31,6 +36,9 @@ sys.path.insert(0, str(HERE))
 
 from cgal_runner import build_reference, run_reference  # noqa: E402
 
+#: rdmesh methods and their labels in the tables.
+METHOD_LABELS = {"boissonnat-oudot": "rdmesh", "topological-ball": "rdmesh_tb"}
+
 #: CGAL runs: (label, mesher, oracle error bound).
 CGAL_RUNS = (
     ("cgal_surface_mesher", "surface_mesher", 1e-3),
@@ -39,12 +47,14 @@ CGAL_RUNS = (
 )
 
 
-def run_rdmesh_here(surface: str, radius: float) -> dict:
+def run_rdmesh_here(surface: str, radius: float, method: str = "boissonnat-oudot") -> dict:
     """Mesh in this process and return the figures (used by the child process)."""
     import rdmesh
 
     s = rdmesh.surfaces.get(surface)
-    mesh = rdmesh.mesh_surface(s, angle_bound=30.0, radius_bound=radius, distance_bound=radius)
+    mesh = rdmesh.mesh_surface(
+        s, angle_bound=30.0, radius_bound=radius, distance_bound=radius, method=method
+    )
     topo = mesh.topology()
     return {
         "seconds": mesh.stats["seconds"],
@@ -58,12 +68,14 @@ def run_rdmesh_here(surface: str, radius: float) -> dict:
         "components": topo["components"],
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "phase_seconds": mesh.stats["phase_seconds"],
+        "method": method,
+        "tbp_holds": mesh.report["tbp_holds"],
     }
 
 
-def run_rdmesh(surface: str, radius: float) -> dict:
+def run_rdmesh(surface: str, radius: float, method: str = "boissonnat-oudot") -> dict:
     out = subprocess.run(
-        [sys.executable, __file__, "--child", surface, repr(radius)],
+        [sys.executable, __file__, "--child", surface, repr(radius), method],
         capture_output=True,
         text=True,
         check=True,
@@ -79,31 +91,42 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="fraction 0.02, one repeat")
     p.add_argument("--no-mesh3", action="store_true", help="skip Mesh_3")
     p.add_argument("--json", type=Path, help="also write all runs to this file")
-    p.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
+    p.add_argument(
+        "--methods",
+        nargs="+",
+        choices=list(METHOD_LABELS),
+        default=["boissonnat-oudot"],
+        help="rdmesh methods to run (default: boissonnat-oudot)",
+    )
+    p.add_argument("--no-cgal", action="store_true", help="run rdmesh only")
+    p.add_argument("--child", nargs=3, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.child:
-        print(json.dumps(run_rdmesh_here(args.child[0], float(args.child[1]))))
+        print(json.dumps(run_rdmesh_here(args.child[0], float(args.child[1]), args.child[2])))
         return 0
     if args.quick:
         args.fraction, args.repeats = 0.02, 1
 
     import rdmesh
 
-    exe = build_reference()
-    runs = [r for r in CGAL_RUNS if not (args.no_mesh3 and r[1] == "mesh_3")]
+    exe = None if args.no_cgal else build_reference()
+    runs = (
+        [] if args.no_cgal else [r for r in CGAL_RUNS if not (args.no_mesh3 and r[1] == "mesh_3")]
+    )
+    mine = [(METHOD_LABELS[m], "rdmesh", m) for m in dict.fromkeys(args.methods)]
     results: dict[str, dict[str, list[dict]]] = {}
     for surface in args.surfaces:
         radius = args.fraction * rdmesh.surfaces.get(surface).radius
         per = results.setdefault(surface, {})
         for rep in range(args.repeats):
             # Alternate the order so drift on a shared machine hits all alike.
-            order = [("rdmesh", None, None), *runs]
+            order = [*mine, *runs]
             if rep % 2:
                 order.reverse()
             for label, mesher, eb in order:
                 t = time.perf_counter()
-                if label == "rdmesh":
-                    r = run_rdmesh(surface, radius)
+                if mesher == "rdmesh":
+                    r = run_rdmesh(surface, radius, eb)
                 else:
                     r = run_reference(exe, mesher, surface, 30.0, radius, radius, error_bound=eb)
                 r["wall_with_startup"] = time.perf_counter() - t
@@ -113,28 +136,34 @@ def main(argv: list[str] | None = None) -> int:
                     f"{r['vertices']:8d} vertices",
                     file=sys.stderr,
                 )
-        report(surface, radius, per)
+        report(surface, radius, per, [m[0] for m in mine])
     if args.json:
         args.json.write_text(json.dumps(results, indent=1))
     return 0
 
 
-def report(surface: str, radius: float, per: dict[str, list[dict]]) -> None:
-    base = statistics.median(r["seconds"] for r in per["rdmesh"])
-    print(f"\n{surface}: angle 30, radius = distance = {radius:g}, medians of {len(per['rdmesh'])}")
-    print(f"{'mesher':28s} {'seconds':>9s} {'vertices':>9s} {'vert/s':>9s} {'rdmesh/x':>9s}")
+def report(surface: str, radius: float, per: dict[str, list[dict]], mine: list[str]) -> None:
+    first = mine[0]
+    base = statistics.median(r["seconds"] for r in per[first])
+    print(f"\n{surface}: angle 30, radius = distance = {radius:g}, medians of {len(per[first])}")
+    print(f"{'mesher':28s} {'seconds':>9s} {'vertices':>9s} {'vert/s':>9s} {first + '/x':>9s}")
     for label, rs in per.items():
         sec = statistics.median(r["seconds"] for r in rs)
         nv = int(statistics.median(r["vertices"] for r in rs))
         ratio = base / sec
         print(f"{label:28s} {sec:9.2f} {nv:9d} {nv / sec:9.0f} {ratio:9.2f}")
-    last = per["rdmesh"][-1]
-    print(
-        f"rdmesh: closed manifold {last['closed']}, components {last['components']}, "
-        f"Euler {last['euler']}, min angle {last['min_angle']:.2f}, "
-        f"{last['evaluations'] / last['vertices']:.0f} evaluations/vertex, "
-        f"peak RSS {last['peak_rss_mb']:.0f} MB"
-    )
+    for label in mine:
+        last = per[label][-1]
+        print(
+            f"{label}: closed manifold {last['closed']}, components {last['components']}, "
+            f"Euler {last['euler']}, min angle {last['min_angle']:.2f}, "
+            f"{last['evaluations'] / last['vertices']:.0f} evaluations/vertex, "
+            f"peak RSS {last['peak_rss_mb']:.0f} MB, TBP certified {last.get('tbp_holds')}"
+        )
+    if "rdmesh" in per and "rdmesh_tb" in per:
+        bo = statistics.median(r["seconds"] for r in per["rdmesh"])
+        tb = statistics.median(r["seconds"] for r in per["rdmesh_tb"])
+        print(f"topological-ball / boissonnat-oudot time: {tb / bo:.2f}")
 
 
 if __name__ == "__main__":

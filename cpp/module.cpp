@@ -121,6 +121,9 @@ PYBIND11_MODULE(_rdt, m) {
             self.update_facets(fl.data(), xyz.data(), fl.size());
           },
           py::arg("flags"), py::arg("centres"))
+      .def("restart_round", &RestrictedDelaunay::restart_round,
+           "Forget chunks not yet updated; the next changed_facets calls hand "
+           "out the whole current round again.")
       .def(
           "facets",
           [](const RestrictedDelaunay& self, std::uint8_t mask) {

@@ -267,6 +267,16 @@ void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
   }
 }
 
+void RestrictedDelaunay::restart_round() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!pending_.empty() || cursor_ < fresh_.size())
+    last_new_.insert(last_new_.begin(), round_vertices_.begin(),
+                     round_vertices_.end());
+  pending_.clear();
+  fresh_.clear();
+  cursor_ = 0;
+}
+
 FacetList RestrictedDelaunay::facets_with(std::uint8_t mask) const {
   FacetList out;
   const std::uint8_t need = RESTRICTED | OUTWARD;

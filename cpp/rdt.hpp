@@ -95,6 +95,10 @@ class RestrictedDelaunay {
   void update_facets(const std::uint8_t* flags, const double* centres,
                      std::size_t n);
 
+  // Forget the chunks handed out and not updated, and hand out the whole
+  // current round again (after an interruption mid-round).
+  void restart_round();
+
   // Restricted facets having any bit of `mask` (all restricted facets when
   // mask is 0), each once.
   FacetList facets_with(std::uint8_t mask) const;

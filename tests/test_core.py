@@ -420,3 +420,17 @@ def test_unfinished_round_is_reported_again_after_insert():
     # Compare with a from-scratch pass: every facet whose dual meets the ball.
     all_tri = rdt.all_facets()[0]
     assert _as_set(rdt.facets(0)[0]) == _as_set(all_tri)
+
+
+def test_restart_round_hands_out_the_whole_round_again():
+    rdt = _rdt_new()
+    pts = _sphere_points(1500, 4)
+    rdt.insert(pts)
+    tri, *_ = rdt.changed_facets(300)
+    rdt.update_facets(np.full(len(tri), RESTRICTED | OUTWARD, np.uint8), np.zeros((len(tri), 3)))
+    rdt.changed_facets(300)  # interrupted: handed out, never updated
+    rdt.restart_round()
+    again = np.concatenate(_drain(rdt, 300))
+    assert _as_set(tri) <= _as_set(again)
+    assert _as_set(rdt.facets(0)[0]) == _as_set(rdt.all_facets()[0])
+    rdt.check()

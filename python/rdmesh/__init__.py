@@ -19,6 +19,7 @@ from ._errors import (
 from ._rdt import CGAL_VERSION
 from .api import mesh_surface
 from .criteria import FacetCriteria
+from .expressions import ExpressionError
 from .oracles import ImplicitSurface
 from .result import SurfaceMesh
 
@@ -31,6 +32,7 @@ __all__ = [
     "CGALError",
     "CGAL_VERSION",
     "EmptySurfaceError",
+    "ExpressionError",
     "FacetCriteria",
     "ImplicitSurface",
     "Interrupted",

@@ -9,10 +9,8 @@ import numpy as np
 
 from .criteria import FacetCriteria, Sizing
 from .oracles import ImplicitSurface
-from .refine import TOPOLOGIES, Budget, Refiner
+from .refine import METHODS, TOPOLOGIES, Budget, Refiner
 from .result import SurfaceMesh
-
-METHODS = ("boissonnat-oudot",)
 
 
 def mesh_surface(
@@ -41,8 +39,10 @@ def mesh_surface(
         proved); 0 disables it.
     radius_bound : float or callable, optional
         Largest radius of the surface Delaunay balls: a number, or a sizing
-        field mapping ``(N, 3)`` points to ``N`` positive radii. Default: a
-        twentieth of the bounding radius. Below 0.1 times the local feature
+        field mapping ``(N, 3)`` points to ``N`` positive radii. Default
+        (None): a twentieth of the bounding radius for Boissonnat-Oudot; no
+        size bound at all for the topological-ball method, which then returns
+        the coarsest mesh it certifies. Below 0.1 times the local feature
         size the output is homeomorphic to the surface (Boissonnat-Oudot).
     distance_bound : float, optional
         Largest distance between a facet's circumcentre and its surface
@@ -50,8 +50,17 @@ def mesh_surface(
     topology : {"manifold", "manifold-with-boundary", "non-manifold"}
         As CGAL's Manifold_tag, Manifold_with_boundary_tag and
         Non_manifold_tag: what the final refinement stage repairs.
-    method : {"boissonnat-oudot"}
-        The refinement algorithm.
+    method : {"boissonnat-oudot", "topological-ball"}
+        The refinement algorithm. "topological-ball" (Cheng-Dey-Ramos-Ray)
+        first refines until the sample has the topological ball property
+        (every Voronoi edge, facet and cell meets the surface in a ball; see
+        :mod:`rdmesh.topology`), so the topology is right at any size, then
+        applies the criteria while keeping the property. It seeds with the
+        critical points of a random height function as well as the grid.
+        Points driven by topology are refused below 0.01 x radius_bound, or
+        without a size bound below 1e-4 x the bounding radius; refused points
+        go to ``SurfaceMesh.unresolved`` and the report then does not claim
+        the property. Every method fills ``SurfaceMesh.report``.
     seed : int
         Seed of every random choice; the same seed gives the same mesh.
     max_vertices : int, optional
@@ -86,7 +95,8 @@ def mesh_surface(
         The surface reaches the bounding sphere.
     rdmesh.BudgetExceeded
         ``max_vertices`` or ``time_limit`` stopped the run; the partial mesh
-        is attached as ``.mesh`` and flagged ``complete=False``.
+        is attached as ``.mesh`` and flagged ``complete=False`` (its report
+        names the regions where tests still fail).
     rdmesh.Interrupted
         Ctrl-C (KeyboardInterrupt) stopped the run; a BudgetExceeded with the
         partial mesh attached.
@@ -99,7 +109,12 @@ def mesh_surface(
         raise ValueError(f"unknown method {method!r}; use one of {', '.join(METHODS)}")
     if topology not in TOPOLOGIES:
         raise ValueError(f"unknown topology {topology!r}; use one of {', '.join(TOPOLOGIES)}")
-    if radius_bound is None:
+    if method == "topological-ball" and topology != "manifold":
+        raise ValueError(
+            f"method 'topological-ball' always produces a closed manifold; topology "
+            f"{topology!r} is only for 'boissonnat-oudot'"
+        )
+    if radius_bound is None and method == "boissonnat-oudot":
         radius_bound = surface.radius / 20.0
     criteria = FacetCriteria(angle_bound, radius_bound, distance_bound)
     if max_vertices is not None:
@@ -144,10 +159,19 @@ def mesh_surface(
                 int(seed_resolution),
                 bar.update,
                 int(workers),
+                method,
             ).run()
     if progress is not False and not callable(progress):
         raise ValueError(f"progress must be True, False or a callable, got {progress!r}")
     callback = progress if callable(progress) else None
     return Refiner(
-        surface, criteria, topology, seed, budget, int(seed_resolution), callback, int(workers)
+        surface,
+        criteria,
+        topology,
+        seed,
+        budget,
+        int(seed_resolution),
+        callback,
+        int(workers),
+        method,
     ).run()

@@ -201,8 +201,15 @@ def _parser() -> argparse.ArgumentParser:
         metavar="D",
         help="largest centre-to-surface distance (default off)",
     )
-    mesh.add_argument("--method", default="boissonnat-oudot", choices=METHODS)
-    mesh.add_argument("--topology", default="manifold", choices=TOPOLOGIES)
+    mesh.add_argument(
+        "--method", default="boissonnat-oudot", choices=METHODS, help="refinement algorithm"
+    )
+    mesh.add_argument(
+        "--topology",
+        default="manifold",
+        choices=TOPOLOGIES,
+        help="what the last stage repairs, as CGAL's tags (default manifold)",
+    )
     mesh.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     mesh.add_argument(
         "--workers",
@@ -351,6 +358,17 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
+def _during_interrupt(exc: BaseException) -> bool:
+    """True if ``exc`` was raised while a KeyboardInterrupt was being handled."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
     logger = logging.getLogger("rdmesh")
@@ -383,6 +401,10 @@ def main(argv: list[str] | None = None) -> int:
         print("rdmesh: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except (_CliError, ValueError, RdmeshError, OSError, ImportError) as exc:
+        if _during_interrupt(exc):
+            # Ctrl-C, then a failure while recovering the partial mesh.
+            print(f"rdmesh: interrupted; no partial mesh: {_one_line(exc)}", file=sys.stderr)
+            return EXIT_INTERRUPTED
         print(f"rdmesh: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
     finally:

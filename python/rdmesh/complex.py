@@ -125,11 +125,12 @@ def euler_characteristics(faces: np.ndarray, n_vertices: int) -> list[int]:
         return []
     faces = np.asarray(faces, dtype=np.int64)
     nf = np.bincount(label, minlength=count)
-    vl = np.unique(np.column_stack([np.repeat(label, 3), faces.ravel()]), axis=0)
-    nv = np.bincount(vl[:, 0], minlength=count)
+    # A vertex or an edge lies in the component of any face that has it.
+    _, first = np.unique(faces.ravel(), return_index=True)
+    nv = np.bincount(np.repeat(label, 3)[first], minlength=count)
     e = np.concatenate(
         [_pair_keys(faces[:, i], faces[:, (i + 1) % 3], n_vertices) for i in range(3)]
     )
-    el = np.unique(np.column_stack([np.tile(label, 3), e]), axis=0)
-    ne = np.bincount(el[:, 0], minlength=count)
+    _, first = np.unique(e, return_index=True)
+    ne = np.bincount(np.tile(label, 3)[first], minlength=count)
     return [int(x) for x in nv - ne + nf]

@@ -68,11 +68,11 @@ class ProgressBar:
         self._swapped: list[tuple[logging.Logger, int, logging.Handler]] = []
 
     def __enter__(self) -> ProgressBar:
-        if self.disable:
+        file = self.file if self.file is not None else sys.stderr
+        if self.disable or file is None:  # no stderr (pythonw): nowhere to draw
             return self
         from tqdm import tqdm
 
-        file = self.file if self.file is not None else sys.stderr
         if self.interval is None:
             isatty = getattr(file, "isatty", None)
             self.interval = 0.5 if isatty is not None and isatty() else 10.0

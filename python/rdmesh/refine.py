@@ -7,6 +7,11 @@ bad facets; the worst candidates that are independent under the batching rule
 equals a valid sequential run. When no facet is bad, the manifold stage
 refines singular edges, boundary edges, non-manifold vertices and samples
 without facets, as CGAL's Manifold_tag does, plus the isolated-sample rule.
+
+``method="topological-ball"`` (Cheng-Dey-Ramos-Ray, algorithm.md 3) runs the
+same loop with other stages: first the topological-ball tests of
+:mod:`rdmesh.topology` until all hold, then the facet criteria; when no facet
+is bad the tests run again, and the run ends when both are satisfied.
 """
 
 from __future__ import annotations
@@ -28,8 +33,18 @@ from .criteria import FacetCriteria
 from .facets import evaluate_facets
 from .oracles import ImplicitSurface
 from .result import SurfaceMesh
-from .roots import bucket_samples, line_crossings
-from .seeding import initial_sample
+from .seeding import critical_points, grid_scan, surface_probes
+from .topology import (
+    CELL_NORMAL_ANGLE,
+    PROBE_TARGET,
+    Probes,
+    describe_regions,
+    isolated_samples,
+    regions,
+    run_tests,
+    shoot_from,
+    topology_report,
+)
 
 log = logging.getLogger("rdmesh")
 
@@ -45,6 +60,14 @@ CORE_CHUNK = 1 << 17
 CHUNK = 1 << 16
 #: Safety cap on rounds; smooth inputs need tens.
 MAX_ROUNDS = 2000
+METHODS = ("boissonnat-oudot", "topological-ball")
+#: Topological-ball method without a size bound: points driven by topology are
+#: refused below this fraction of the bounding radius (the spacing floor that
+#: ends refinement at singular points); they go to SurfaceMesh.unresolved.
+TB_FLOOR = 1e-4
+#: Topological-ball method without a size bound: grid seeds on large bands are
+#: thinned to this fraction of the bounding radius (small bands keep all).
+TB_SEED_SPACING = 0.25
 
 
 @dataclass
@@ -65,6 +88,11 @@ class _State:
     inserted: dict[str, int] = field(default_factory=dict)
     timing: dict[str, float] = field(default_factory=dict)
     unresolved: list[np.ndarray] = field(default_factory=list)
+    crossings: np.ndarray | None = None
+    grid_spacing: float = 0.0
+    probes: Probes | None = None
+    critical: object = None
+    phase: str = "tbp"
 
 
 class Refiner:
@@ -80,7 +108,10 @@ class Refiner:
         seed_resolution: int = 64,
         progress: Callable[[dict], None] | None = None,
         workers: int = 1,
+        method: str = "boissonnat-oudot",
     ) -> None:
+        if method not in METHODS:
+            raise ValueError(f"unknown method {method!r}; use one of {', '.join(METHODS)}")
         if topology not in TOPOLOGIES:
             raise ValueError(f"unknown topology {topology!r}; use one of {', '.join(TOPOLOGIES)}")
         self.surface = surface
@@ -92,6 +123,10 @@ class Refiner:
         self.h_min = MIN_SPACING * surface.radius
         self.progress = progress
         self.workers = workers
+        self.method = method
+        self.tb = method == "topological-ball"
+        #: Floor of topology-driven points when there is no size bound.
+        self.topo_floor = TB_FLOOR * surface.radius if self.tb else self.h_min
 
     def run(self) -> SurfaceMesh:
         t0 = time.perf_counter()
@@ -101,9 +136,16 @@ class Refiner:
         spacing = (
             self.criteria.radius_bound if isinstance(self.criteria.radius_bound, float) else None
         )
+        if self.tb and self.criteria.radius_bound is None:
+            # No size bound: seeds only need to find the components; the tests
+            # add what the topology needs.
+            spacing = TB_SEED_SPACING * surface.radius
         st = _State(_rdt.RestrictedDelaunay(surface.centre, surface.radius), np.zeros((0, 3)))
         with _timed(st, "seeding"):
-            seeds = initial_sample(surface, rng, self.seed_resolution, spacing=spacing)
+            scan = grid_scan(surface, rng, self.seed_resolution, spacing=spacing)
+            seeds, st.crossings, st.grid_spacing = scan.seeds, scan.crossings, scan.spacing
+            if self.tb:
+                seeds = self._tb_seeds(st, rng, seeds)
         stop = None
         cap = self.budget.max_vertices
         if cap is not None and len(seeds) > cap:
@@ -113,10 +155,11 @@ class Refiner:
         try:
             stop = self._loop(st, t0, stop)
         except KeyboardInterrupt:
-            # Keep what is there: samples inserted so far, facets evaluated so
-            # far (a round cut short may leave holes; the mesh is flagged).
+            # Keep the samples inserted so far and evaluate the interrupted
+            # round again from its start, so the partial mesh is consistent.
             interrupted, stop = True, "interrupted"
             st.vertices = st.rdt.samples()
+            st.rdt.restart_round()
             self._update(st)
         mesh = self._finish(st, t0, evals0, stop)
         if interrupted:
@@ -159,13 +202,31 @@ class Refiner:
             self._update(st)
         return stop
 
+    def _tb_seeds(self, st: _State, rng: np.random.Generator, seeds: np.ndarray) -> np.ndarray:
+        """Grid seeds plus the critical points of a random height; probes for the tests."""
+        surface, h = self.surface, st.grid_spacing
+        crit = critical_points(surface, np.concatenate([seeds, st.crossings]), rng, h)
+        st.critical = crit
+        if len(crit.points):
+            # Grid seeds right next to a critical point only add short edges.
+            d, _ = cKDTree(crit.points).query(seeds)
+            seeds = np.concatenate([crit.points, seeds[d > 0.5 * h]])
+        st.probes = Probes.on(
+            surface, surface_probes(surface, st.crossings, h, rng, PROBE_TARGET), h
+        )
+        st.phase = "tbp"
+        return seeds
+
     def _finish(self, st: _State, t0: float, evals0: int, stop: str | None) -> SurfaceMesh:
         mesh = self._mesh(st)
+        with _timed(st, "report"):
+            mesh.report = self._report(st, mesh, complete=not stop)
         if len(mesh.unresolved):
             log.warning(
                 "%d refinement points were below the spacing floor and not inserted "
-                "(near-singular surface?); see SurfaceMesh.unresolved",
+                "(near-singular surface?): %s; see SurfaceMesh.unresolved",
                 len(mesh.unresolved),
+                describe_regions(regions(mesh.unresolved, 0.05 * self.surface.radius)),
             )
         mesh.stats.update(
             seconds=time.perf_counter() - t0,
@@ -176,7 +237,7 @@ class Refiner:
             facets_evaluated=st.changed,
             phase_seconds={k: round(v, 4) for k, v in st.timing.items()},
             unresolved=len(mesh.unresolved),
-            method="boissonnat-oudot",
+            method=self.method,
             topology=self.topology,
         )
         if stop:
@@ -249,6 +310,87 @@ class Refiner:
                 work(sl)
         return flags, centres
 
+    def _report(self, st: _State, mesh: SurfaceMesh, complete: bool) -> dict:
+        """The topology report, from the tests re-run on the final samples."""
+        tri, centres, flags = st.rdt.facets(0)
+        probes = st.probes
+        if probes is None and st.crossings is not None:
+            probes = Probes.on(self.surface, st.crossings, st.grid_spacing)
+        sizing = self.criteria.radius_bound
+        floor = None
+        if self.tb:
+            floor = (
+                {"topology": f"{TOPOLOGY_FLOOR:g} x radius_bound"}
+                if sizing is not None
+                else {"topology": self.topo_floor}
+            )
+        return topology_report(
+            method=self.method,
+            surface=self.surface,
+            vertices=st.vertices,
+            tri=tri,
+            centres=centres,
+            flags=flags,
+            probes=probes,
+            topo_bit=TOPO,
+            faces=mesh.faces,
+            n_mesh_vertices=len(mesh.vertices),
+            repaired=st.inserted,
+            unresolved=mesh.unresolved,
+            complete=complete,
+            critical=st.critical,
+            floor=floor,
+        )
+
+    def _tb_candidates(self, st: _State) -> tuple[np.ndarray, np.ndarray, str]:
+        """Topological-ball stages (algorithm.md 3.2).
+
+        Phase "tbp": the tests of :mod:`rdmesh.topology` in order until all
+        hold. Phase "geometric": Voronoi-edge violations, then bad facets, and
+        when none is left the tests again (a batch can break the property);
+        the run ends when nothing fails.
+        """
+        st.unresolved = []
+        tests = None
+        if st.phase == "geometric":
+            tri, centres, flags = st.rdt.facets(TOPO)
+            found = self._floor(
+                st, centres, self._radii(st, tri, centres), topo=True, stage="voronoi_edge"
+            )
+            if found is not None:
+                return found
+            tri, centres, _ = st.rdt.facets(BAD)
+            found = self._floor(
+                st, centres, self._radii(st, tri, centres), topo=False, stage="facet"
+            )
+            if found is not None:
+                return found
+            tests = ("voronoi_facet", "disk", "isolated", "silhouette")
+        tri, centres, flags = st.rdt.facets(0)
+        kw = {} if tests is None else {"only": tests}
+        for v in run_tests(
+            self.surface,
+            st.vertices,
+            tri,
+            centres,
+            flags,
+            st.probes,
+            TOPO,
+            silhouette_angle=CELL_NORMAL_ANGLE,
+            **kw,
+        ):
+            found = self._floor(st, v.centres, v.radii, topo=True, stage=v.kind)
+            if found is not None:
+                return found
+        if st.phase == "tbp":
+            log.debug("topological ball property holds at %d samples", len(st.vertices))
+            st.phase = "geometric"
+            unresolved = st.unresolved
+            out = self._tb_candidates(st)
+            st.unresolved = unresolved + st.unresolved
+            return out
+        return np.zeros((0, 3)), np.zeros(0), "done"
+
     def _candidates(self, st: _State) -> tuple[np.ndarray, np.ndarray, str]:
         """Refinement points with their ball radii, from the first stage that has any.
 
@@ -257,6 +399,8 @@ class Refiner:
         non-manifold vertices, then samples without facets. Points closer to
         the mesh than the floor are refused and kept in ``st.unresolved``.
         """
+        if self.tb:
+            return self._tb_candidates(st)
         st.unresolved = []
         tri, centres, flags = st.rdt.facets(BAD | TOPO)
         radii = self._radii(st, tri, centres)
@@ -290,6 +434,8 @@ class Refiner:
             psi = self.criteria.sizing(centres[topo])
             if psi is not None:
                 floor[topo] = np.maximum(self.h_min, TOPOLOGY_FLOOR * psi)
+            else:
+                floor[topo] = self.topo_floor
         keep = radii > floor
         if not keep.all():
             st.unresolved.append(centres[~keep])
@@ -317,45 +463,12 @@ class Refiner:
     def _isolated(self, st: _State, tri: np.ndarray):
         """Points far from samples that have no restricted facet (algorithm.md 3.4).
 
-        Shoots from each such sample p along and around -n and +n; the first
-        crossing whose nearest sample is p lies in p's Voronoi cell, so it is
-        the centre of an empty ball of radius |x - p|.
+        See :func:`rdmesh.topology.shoot_from`.
         """
-        used = np.zeros(len(st.vertices), bool)
-        used[tri.ravel()] = True
-        lonely = np.flatnonzero(~used)
+        lonely = isolated_samples(tri, len(st.vertices))
         if lonely.size == 0:
             return np.zeros((0, 3)), np.zeros(0)
-        p = st.vertices[lonely]
-        n = self.surface.grad(p)
-        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
-        dirs = _shot_directions(n)  # (len(p), D, 3)
-        D = dirs.shape[1]
-        owner = np.repeat(np.arange(len(p)), D)
-        d = dirs.reshape(-1, 3)
-        R = self.surface.radius
-        start = p[owner] + 1e-6 * R * d
-        # Run each shot to the bounding sphere.
-        f = start - self.surface.centre
-        b = np.einsum("ij,ij->i", f, d)
-        c = np.einsum("ij,ij->i", f, f) - R * R
-        length = -b + np.sqrt(np.maximum(b * b - c, 0.0))
-        ok = length > 0
-        rows = np.flatnonzero(ok)
-        order, buckets = bucket_samples(length[rows], np.full(rows.size, 64))
-        rows = rows[order]
-        cr = line_crossings(self.surface, start[rows], d[rows], buckets, xatol=1e-9 * R)
-        if cr.segment.size == 0:
-            return np.zeros((0, 3)), np.zeros(0)
-        first = np.r_[True, cr.segment[1:] != cr.segment[:-1]]
-        seg, x = rows[cr.segment[first]], cr.point[first]
-        _, nearest = cKDTree(st.vertices).query(x)
-        me = lonely[owner[seg]]
-        valid = nearest == me
-        seg, x, me = seg[valid], x[valid], me[valid]
-        r = np.linalg.norm(x - st.vertices[me], axis=1)
-        pick = largest_incident(me, np.arange(len(x)), r)
-        return x[pick], r[pick]
+        return shoot_from(self.surface, st.vertices, lonely)
 
     def _check_budget(self, st: _State, t0: float) -> str | None:
         b = self.budget
@@ -394,20 +507,3 @@ def _timed(st: _State, phase: str):
         yield
     finally:
         st.timing[phase] = st.timing.get(phase, 0.0) + time.perf_counter() - t
-
-
-def _shot_directions(n: np.ndarray) -> np.ndarray:
-    """Directions at 0, 30 and 60 degrees around -n and +n, ``(k, 26, 3)``."""
-    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
-    t1 = np.cross(n, helper)
-    t1 /= np.linalg.norm(t1, axis=1)[:, None]
-    t2 = np.cross(n, t1)
-    out = []
-    for sgn in (-1.0, 1.0):
-        out.append(sgn * n)
-        for tilt in (np.pi / 6, np.pi / 3):
-            for phi in np.arange(6) * np.pi / 3:
-                out.append(
-                    sgn * np.cos(tilt) * n + np.sin(tilt) * (np.cos(phi) * t1 + np.sin(phi) * t2)
-                )
-    return np.stack(out, axis=1)

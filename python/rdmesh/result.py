@@ -37,6 +37,28 @@ class SurfaceMesh:
     unresolved : (k, 3) float64
         Refinement points that were not inserted because they were closer than
         the minimum spacing to the mesh; empty for a fully refined mesh.
+    report : dict
+        The topology report (:func:`rdmesh.topology.topology_report`), the
+        same fields for every method, computed on the final samples:
+
+        ``tbp_holds``
+            True only when every topological-ball test held, nothing was left
+            unresolved and the run completed (see :attr:`topology_certified`).
+        ``tests``
+            Per test (``voronoi_edge``, ``voronoi_facet``, ``disk``,
+            ``isolated``, ``silhouette``): ``held``, ``violations`` at the end,
+            ``repaired`` (points inserted to repair it), ``basis`` ("exact",
+            "sampled", ...) and what it checks.
+        ``components``, ``euler``, ``closed_manifold``
+            Of the output mesh.
+        ``unresolved_regions``, ``violation_regions``
+            Where points were refused by the spacing floor, or tests still fail:
+            ``centre``, ``radius`` and ``points`` of each cluster.
+        ``critical_points``
+            Topological-ball method: the height-function critical points used
+            as seeds and whether their Morse count matches the mesh.
+        ``statement``
+            What is certified and what rests on sampling, in words.
     """
 
     vertices: np.ndarray
@@ -45,6 +67,12 @@ class SurfaceMesh:
     stats: dict[str, Any] = field(default_factory=dict)
     complete: bool = True
     unresolved: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    report: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def topology_certified(self) -> bool:
+        """True when the topology report claims the topological ball property."""
+        return bool(self.report.get("tbp_holds", False))
 
     @property
     def ball_radii(self) -> np.ndarray:
@@ -137,4 +165,11 @@ class SurfaceMesh:
             lines.append("INCOMPLETE: " + str(self.stats.get("stop_reason", "budget")))
         if len(self.unresolved):
             lines.append(f"unresolved refinement points: {len(self.unresolved)}")
+        if self.report:
+            failed = [k for k, t in self.report["tests"].items() if t["held"] is False]
+            lines.append(
+                "topological ball property: "
+                + ("holds" if self.report["tbp_holds"] else "NOT certified")
+                + (f" (failed: {', '.join(failed)})" if failed else "")
+            )
         return "\n".join(lines)
