@@ -47,13 +47,20 @@ CGAL_RUNS = (
 )
 
 
-def run_rdmesh_here(surface: str, radius: float, method: str = "boissonnat-oudot") -> dict:
+def run_rdmesh_here(
+    surface: str, radius: float, method: str = "boissonnat-oudot", workers: int = 1
+) -> dict:
     """Mesh in this process and return the figures (used by the child process)."""
     import rdmesh
 
     s = rdmesh.surfaces.get(surface)
     mesh = rdmesh.mesh_surface(
-        s, angle_bound=30.0, radius_bound=radius, distance_bound=radius, method=method
+        s,
+        angle_bound=30.0,
+        radius_bound=radius,
+        distance_bound=radius,
+        method=method,
+        workers=workers,
     )
     topo = mesh.topology()
     return {
@@ -69,13 +76,16 @@ def run_rdmesh_here(surface: str, radius: float, method: str = "boissonnat-oudot
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "phase_seconds": mesh.stats["phase_seconds"],
         "method": method,
+        "workers": workers,
         "tbp_holds": mesh.report["tbp_holds"],
     }
 
 
-def run_rdmesh(surface: str, radius: float, method: str = "boissonnat-oudot") -> dict:
+def run_rdmesh(
+    surface: str, radius: float, method: str = "boissonnat-oudot", workers: int = 1
+) -> dict:
     out = subprocess.run(
-        [sys.executable, __file__, "--child", surface, repr(radius), method],
+        [sys.executable, __file__, "--child", surface, repr(radius), method, str(workers)],
         capture_output=True,
         text=True,
         check=True,
@@ -99,10 +109,14 @@ def main(argv: list[str] | None = None) -> int:
         help="rdmesh methods to run (default: boissonnat-oudot)",
     )
     p.add_argument("--no-cgal", action="store_true", help="run rdmesh only")
-    p.add_argument("--child", nargs=3, help=argparse.SUPPRESS)
+    p.add_argument(
+        "--workers", nargs="+", type=int, default=[1], help="rdmesh worker threads to try"
+    )
+    p.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.child:
-        print(json.dumps(run_rdmesh_here(args.child[0], float(args.child[1]), args.child[2])))
+        name, radius, method, workers = args.child
+        print(json.dumps(run_rdmesh_here(name, float(radius), method, int(workers))))
         return 0
     if args.quick:
         args.fraction, args.repeats = 0.02, 1
@@ -113,7 +127,11 @@ def main(argv: list[str] | None = None) -> int:
     runs = (
         [] if args.no_cgal else [r for r in CGAL_RUNS if not (args.no_mesh3 and r[1] == "mesh_3")]
     )
-    mine = [(METHOD_LABELS[m], "rdmesh", m) for m in dict.fromkeys(args.methods)]
+    mine = [
+        (METHOD_LABELS[m] + (f"_w{w}" if w > 1 else ""), "rdmesh", (m, w))
+        for m in dict.fromkeys(args.methods)
+        for w in dict.fromkeys(args.workers)
+    ]
     results: dict[str, dict[str, list[dict]]] = {}
     for surface in args.surfaces:
         radius = args.fraction * rdmesh.surfaces.get(surface).radius
@@ -126,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
             for label, mesher, eb in order:
                 t = time.perf_counter()
                 if mesher == "rdmesh":
-                    r = run_rdmesh(surface, radius, eb)
+                    r = run_rdmesh(surface, radius, *eb)
                 else:
                     r = run_reference(exe, mesher, surface, 30.0, radius, radius, error_bound=eb)
                 r["wall_with_startup"] = time.perf_counter() - t

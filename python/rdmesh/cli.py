@@ -383,7 +383,9 @@ def main(argv: list[str] | None = None) -> int:
         elif args.verbose:
             logger.setLevel(logging.DEBUG)
         if args.command == "demo":
-            return _run(args, get(args.surface))
+            # A finer size than the API default: the picture should show the mesh.
+            surface = get(args.surface)
+            return _run(args, surface, radius_bound=surface.radius / 40)
         return _run(
             args,
             _surface(args),

@@ -440,10 +440,9 @@ def topology_report(
             "tests": what,
         }
     chi = euler_characteristics(faces, n_mesh_vertices)
-    closed = False
-    if len(faces):
-        st = complex_status(faces, n_mesh_vertices)
-        closed = bool(np.all(st.edge_count == 2) and np.all(st.vertex_fans[np.unique(faces)] == 1))
+    # The output faces are the restricted facets: every edge in two faces is
+    # the Voronoi-facet test, one fan per vertex is the disk test.
+    closed = bool(len(faces) and tests["voronoi_facet"]["held"] and tests["disk"]["held"])
     link = 0.05 * surface.radius
     unresolved_regions = regions(unresolved, link)
     violation_regions = regions(np.concatenate(where) if where else np.zeros((0, 3)), link)
