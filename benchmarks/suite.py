@@ -56,19 +56,11 @@ HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:
     sys.path.insert(0, str(HERE))
 
+from cgal_runner import SURFACES as ALL_SURFACES  # noqa: E402
+
 SCHEMA = "rdmesh-benchmark-suite/1"
 MESHERS = ("rdmesh", "cgal_surface_mesher", "cgal_mesh_3", "pygalmesh", "marching_cubes")
 CGAL_MESHERS = {"cgal_surface_mesher": "surface_mesher", "cgal_mesh_3": "mesh_3"}
-ALL_SURFACES = (
-    "sphere",
-    "ellipsoid",
-    "torus",
-    "thin_torus",
-    "double_torus",
-    "tanglecube",
-    "two_spheres",
-    "blob_line",
-)
 DEFAULT_SIZES = (1e4, 1e5, 1e6)
 QUICK_SIZES = (2e3, 1e4)
 QUICK_SURFACES = ("sphere", "torus", "tanglecube")

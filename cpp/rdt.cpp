@@ -68,15 +68,7 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
   }
   // Cell handles of an unfinished round die with the insertion: report the
   // whole neighbourhood of that round's vertices again next round.
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (!pending_.empty() || cursor_ < fresh_.size())
-      last_new_.insert(last_new_.begin(), round_vertices_.begin(),
-                       round_vertices_.end());
-    pending_.clear();
-  }
-  fresh_.clear();
-  cursor_ = 0;
+  restart_round();
 
   std::vector<std::size_t> order(n);
   for (std::size_t k = 0; k < n; ++k) order[k] = k;

@@ -146,32 +146,23 @@ def mesh_surface(
     ):
         raise ValueError(f"workers must be an integer from 1 to 64, got {workers!r}")
     budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
-    if progress is True:
-        from .progress import ProgressBar
-
-        with ProgressBar() as bar:
-            return Refiner(
-                surface,
-                criteria,
-                topology,
-                seed,
-                budget,
-                int(seed_resolution),
-                bar.update,
-                int(workers),
-                method,
-            ).run()
-    if progress is not False and not callable(progress):
+    if progress is not True and progress is not False and not callable(progress):
         raise ValueError(f"progress must be True, False or a callable, got {progress!r}")
-    callback = progress if callable(progress) else None
-    return Refiner(
+    refiner = Refiner(
         surface,
         criteria,
         topology,
         seed,
         budget,
         int(seed_resolution),
-        callback,
+        progress if callable(progress) else None,
         int(workers),
         method,
-    ).run()
+    )
+    if progress is True:
+        from .progress import ProgressBar
+
+        with ProgressBar() as bar:
+            refiner.progress = bar.update
+            return refiner.run()
+    return refiner.run()
