@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 
 from . import _rdt
 from ._errors import BudgetExceeded, Interrupted
-from .complex import complex_status, largest_incident
+from .complex import complex_status
 from .criteria import FacetCriteria
 from .facets import evaluate_facets
 from .oracles import ImplicitSurface
@@ -39,11 +39,12 @@ from .topology import (
     PROBE_TARGET,
     Probes,
     describe_regions,
-    isolated_samples,
+    disk_test,
+    isolated_test,
     regions,
     run_tests,
-    shoot_from,
     topology_report,
+    voronoi_facet_test,
 )
 
 log = logging.getLogger("rdmesh")
@@ -58,6 +59,8 @@ TOPOLOGY_FLOOR = 0.01
 #: of a round's temporaries.
 CORE_CHUNK = 1 << 17
 CHUNK = 1 << 16
+#: Names of the Boissonnat-Oudot manifold stages (CGAL's words) per topology test.
+BO_STAGES = {"voronoi_facet": "edge", "disk": "vertex", "isolated": "isolated"}
 #: Safety cap on rounds; smooth inputs need tens.
 MAX_ROUNDS = 2000
 METHODS = ("boissonnat-oudot", "topological-ball")
@@ -409,15 +412,21 @@ class Refiner:
             return found
         tri, centres, _ = st.rdt.facets(0)
         radii = self._radii(st, tri, centres)
-        for stage, pick in self._topology_defects(st, tri, radii):
-            found = self._floor(st, centres[pick], radii[pick], topo=True, stage=stage)
+        for v in self._manifold_defects(st, tri, centres, radii):
+            found = self._floor(st, v.centres, v.radii, topo=True, stage=BO_STAGES[v.kind])
             if found is not None:
                 return found
-        x, r = self._isolated(st, tri)
-        found = self._floor(st, x, r, topo=True, stage="isolated")
-        if found is not None:
-            return found
         return np.zeros((0, 3)), np.zeros(0), "done"
+
+    def _manifold_defects(self, st: _State, tri, centres, radii):
+        """Violations of the manifold stages in CGAL's order (edges, then vertices),
+        then samples without facets; lazily, so later stages cost only when reached."""
+        if self.topology != "non-manifold":
+            status = complex_status(tri, len(st.vertices))
+            allow = self.topology == "manifold-with-boundary"
+            yield voronoi_facet_test(status, centres, radii, allow_boundary=allow)
+            yield disk_test(status, tri, centres, radii)
+        yield isolated_test(self.surface, st.vertices, tri)
 
     def _floor(self, st, centres, radii, topo, stage):
         """Keep the points whose ball is above the spacing floor; None if none are.
@@ -443,32 +452,8 @@ class Refiner:
             return None
         return centres[keep], radii[keep], stage
 
-    def _topology_defects(self, st: _State, tri: np.ndarray, radii: np.ndarray):
-        """(stage, facet indices) for the manifold stages, in CGAL's order."""
-        if self.topology == "non-manifold":
-            return
-        status = complex_status(tri, len(st.vertices))
-        bad_edges = status.bad_edges(allow_boundary=self.topology == "manifold-with-boundary")
-        if bad_edges.size:
-            f_idx, e_slot = np.nonzero(np.isin(status.facet_edges, bad_edges))
-            yield "edge", largest_incident(status.facet_edges[f_idx, e_slot], f_idx, radii)
-        bad_v = np.flatnonzero(status.vertex_fans > 1)
-        if bad_v.size:
-            f_idx, corner = np.nonzero(np.isin(tri, bad_v))
-            yield "vertex", largest_incident(tri[f_idx, corner], f_idx, radii)
-
     def _radii(self, st: _State, tri: np.ndarray, centres: np.ndarray) -> np.ndarray:
         return np.linalg.norm(centres - st.vertices[tri[:, 0]], axis=1)
-
-    def _isolated(self, st: _State, tri: np.ndarray):
-        """Points far from samples that have no restricted facet (algorithm.md 3.4).
-
-        See :func:`rdmesh.topology.shoot_from`.
-        """
-        lonely = isolated_samples(tri, len(st.vertices))
-        if lonely.size == 0:
-            return np.zeros((0, 3)), np.zeros(0)
-        return shoot_from(self.surface, st.vertices, lonely)
 
     def _check_budget(self, st: _State, t0: float) -> str | None:
         b = self.budget

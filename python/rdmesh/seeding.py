@@ -35,19 +35,6 @@ def fibonacci_sphere(n: int) -> np.ndarray:
     return np.column_stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)])
 
 
-def initial_sample(
-    surface: ImplicitSurface,
-    rng: np.random.Generator,
-    resolution: int = 64,
-    spacing: float | None = None,
-) -> np.ndarray:
-    """Points on every component of the surface thicker than the grid spacing.
-
-    The seeds of :func:`grid_scan`; see there.
-    """
-    return grid_scan(surface, rng, resolution, spacing).seeds
-
-
 @dataclass
 class GridScan:
     """Result of :func:`grid_scan`.

@@ -143,9 +143,10 @@ def voronoi_edge_test(tri, centres, radii, flags, topo_bit: int) -> Violations:
     return Violations("voronoi_edge", int(bad.sum()), centres[bad], radii[bad])
 
 
-def voronoi_facet_test(status, centres, radii) -> Violations:
-    """T2 crossing count: complex edges with other than 2 restricted triangles."""
-    bad = np.flatnonzero(status.edge_count != 2)
+def voronoi_facet_test(status, centres, radii, allow_boundary: bool = False) -> Violations:
+    """T2 crossing count: complex edges with other than 2 restricted triangles
+    (only more than 2 with ``allow_boundary``, as CGAL's Manifold_with_boundary_tag)."""
+    bad = status.bad_edges(allow_boundary)
     if bad.size == 0:
         return _none("voronoi_facet")
     f_idx, slot = np.nonzero(np.isin(status.facet_edges, bad))
