@@ -190,14 +190,19 @@ def _from_scratch(rdt, surface, criteria):
     P = rdt.samples()
     tri, seg = rdt.all_facets()
     ev = evaluate_facets(surface, P[tri[:, 0]], seg, circumradii(P[tri]))
+    return tri, seg, ev, ev.restricted, _bad(criteria, P[tri], ev)
+
+
+def _bad(criteria, corners, ev):
+    """Restricted facets failing a criterion or crossing several times/tangentially."""
     r = ev.restricted
-    bad = np.zeros(len(tri), bool)
+    bad = np.zeros(len(corners), bool)
     bad[r] = (
-        criteria.bad(P[tri[r]], ev.centre[r], ev.radius[r])
+        criteria.bad(corners[r], ev.centre[r], ev.radius[r])
         | (ev.n_cross[r] >= 2)
         | ev.tangential[r]
     )
-    return tri, seg, ev, r, bad
+    return bad
 
 
 def _as_set(tri):
@@ -216,12 +221,7 @@ def _drive_and_compare(surface, seeds, criteria, max_rounds=60):
         assert np.allclose(rho, circumradii(P[tri]), rtol=1e-9)
         ev = evaluate_facets(surface, P[tri[:, 0]], seg, rho, surface(ends)[end_index])
         r = ev.restricted
-        bad = np.zeros(len(tri), bool)
-        bad[r] = (
-            criteria.bad(P[tri[r]], ev.centre[r], ev.radius[r])
-            | (ev.n_cross[r] >= 2)
-            | ev.tangential[r]
-        )
+        bad = _bad(criteria, P[tri], ev)
         flags = r * RESTRICTED | bad * BAD | (r & ev.outward) * OUTWARD
         rdt.update_facets(flags.astype(np.uint8), ev.centre)
         rdt.check()
