@@ -6,6 +6,7 @@
 #include <CGAL/exceptions.h>
 #include <CGAL/version.h>
 
+#include <cmath>
 #include <cstring>
 #include <string>
 
@@ -41,12 +42,27 @@ py::tuple facet_pair(const rdmesh::ChangedFacets& f) {
   return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.seg, {k, 2, 3}));
 }
 
+py::tuple samples_tuple(const rdmesh::SegmentSamples& m) {
+  return py::make_tuple(
+      to_numpy(m.offsets, {static_cast<py::ssize_t>(m.offsets.size())}),
+      to_numpy(m.s, {static_cast<py::ssize_t>(m.s.size())}),
+      to_numpy(m.interior, {static_cast<py::ssize_t>(m.interior.size() / 3), 3}));
+}
+
 py::tuple facet_quad(const rdmesh::ChangedFacets& f) {
   const auto k = static_cast<py::ssize_t>(f.tri.size() / 3);
   const auto u = static_cast<py::ssize_t>(f.ends.size() / 3);
   return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.seg, {k, 2, 3}),
                         to_numpy(f.end_index, {k, 2}), to_numpy(f.ends, {u, 3}),
-                        to_numpy(f.rho, {k}));
+                        to_numpy(f.rho, {k}), samples_tuple(f.samples));
+}
+
+rdmesh::SegmentSampling sampling_spec(double per_radius, std::int64_t lo,
+                                      std::int64_t hi) {
+  if (!(per_radius > 0.0) || !std::isfinite(per_radius) || lo < 1 || hi < lo)
+    throw std::invalid_argument(
+        "sampling needs per_radius > 0 and 1 <= min_intervals <= max_intervals");
+  return {per_radius, lo, hi};
 }
 
 void silent_handler(const char*, const char*, const char*, int, const char*) {}
@@ -70,6 +86,41 @@ PYBIND11_MODULE(_rdt, m) {
       PyErr_SetString(cgal_error.ptr(), e.what());
     }
   });
+
+  m.def(
+      "sample_segments",
+      [](const InArray& seg, const InArray& apex, const InArray& rho, double per_radius,
+         std::int64_t min_intervals, std::int64_t max_intervals) {
+        const auto spec = sampling_spec(per_radius, min_intervals, max_intervals);
+        if (seg.ndim() != 3 || seg.shape(1) != 2 || seg.shape(2) != 3)
+          throw std::invalid_argument("seg must have shape (k, 2, 3)");
+        const py::ssize_t k = seg.shape(0);
+        if (apex.ndim() != 2 || apex.shape(0) != k || apex.shape(1) != 3)
+          throw std::invalid_argument("apex must have shape (k, 3) matching seg");
+        if (rho.ndim() != 1 || rho.shape(0) != k)
+          throw std::invalid_argument("rho must have shape (k,) matching seg");
+        const double* S = seg.data();
+        const double* A = apex.data();
+        const double* Rh = rho.data();
+        for (py::ssize_t i = 0; i < 6 * k; ++i)
+          if (!std::isfinite(S[i]))
+            throw std::invalid_argument("seg has a non-finite coordinate");
+        rdmesh::SegmentSamples out;
+        {
+          py::gil_scoped_release release;
+          out.reserve(static_cast<std::size_t>(k), 6);
+          for (py::ssize_t i = 0; i < k; ++i)
+            out.add(S + 6 * i, S + 6 * i + 3, A + 3 * i, Rh[i], spec);
+        }
+        return samples_tuple(out);
+      },
+      py::arg("seg"), py::arg("apex"), py::arg("rho"), py::arg("per_radius") = 1.0,
+      py::arg("min_intervals") = 3, py::arg("max_intervals") = 64,
+      "Samples along dual segments (k, 2, 3) of facets with a vertex apex (k, 3) "
+      "and circumradius rho (k,), evenly in asinh(distance from the facet's "
+      "circumcentre / rho), clamped to [min_intervals, max_intervals] intervals: "
+      "((k+1,) offsets, (P,) distances from each start, (P - 2k, 3) interior "
+      "points).");
 
   py::class_<RestrictedDelaunay>(m, "RestrictedDelaunay")
       .def(py::init([](const InArray& centre, double radius) {
@@ -95,21 +146,24 @@ PYBIND11_MODULE(_rdt, m) {
           "duplicates).")
       .def(
           "changed_facets",
-          [](RestrictedDelaunay& self, std::size_t max_facets) {
+          [](RestrictedDelaunay& self, std::size_t max_facets, double per_radius,
+             std::int64_t min_intervals, std::int64_t max_intervals) {
+            const auto spec = sampling_spec(per_radius, min_intervals, max_intervals);
             rdmesh::ChangedFacets f;
             {
               py::gil_scoped_release release;
-              f = self.changed_facets(max_facets);
+              f = self.changed_facets(max_facets, spec);
             }
             return facet_quad(f);
           },
-          py::arg("max_facets") = 0,
+          py::arg("max_facets") = 0, py::arg("per_radius") = 1.0,
+          py::arg("min_intervals") = 3, py::arg("max_intervals") = 64,
           "Next chunk (about max_facets; 0 = all) of the facets whose dual "
           "changed since the last round; empty when the round is done. "
           "Returns ((k, 3) sorted "
           "vertex ids, (k, 2, 3) clipped dual segments, (k, 2) indices of the "
           "segment ends into (u, 3) distinct end points, (k,) facet "
-          "circumradii).")
+          "circumradii, samples), samples as from sample_segments.")
       .def(
           "update_facets",
           [](RestrictedDelaunay& self, const FlagArray& flags, const InArray& centres) {

@@ -127,40 +127,88 @@ bool RestrictedDelaunay::clip(Vec3& a, Vec3& b) const {
   return true;
 }
 
-ChangedFacets RestrictedDelaunay::changed_facets(std::size_t max_facets) {
+bool RestrictedDelaunay::gather_next_vertex() {
+  while (vertex_cursor_ < round_vertices_.size()) {
+    Vertex_handle v = round_vertices_[vertex_cursor_++];
+    around_.clear();
+    dt_.incident_cells(v, std::back_inserter(around_));
+    const std::size_t before = fresh_.size();
+    for (Cell_handle c : around_) {
+      CellInfo& info = c->info();
+      if (info.stamp == round_) continue;
+      info.stamp = round_;
+      info.order = static_cast<std::int32_t>(fresh_.size());
+      // Facets shared with a cell gathered earlier are that cell's to report
+      // (and may be being updated right now); the others are this cell's.
+      for (int i = 0; i < 4; ++i)
+        if (c->neighbor(i)->info().stamp != round_) {
+          info.flags[i] = 0;
+          info.centre[i] = -1;
+        }
+      fresh_.push_back(c);
+    }
+    if (fresh_.size() > before) return true;
+  }
+  return false;
+}
+
+bool RestrictedDelaunay::round_unfinished() const {
+  return !pending_.empty() || cursor_ < fresh_.size() ||
+         vertex_cursor_ < round_vertices_.size();
+}
+
+void RestrictedDelaunay::compact_centres() {
+  // Restricted facets are about two per sample; entries of destroyed cells
+  // pile up otherwise.
+  if (centres_.size() / 3 < 8 * samples_.size() + 4096) return;
+  std::vector<double> kept;
+  kept.reserve(3 * (4 * samples_.size() + 1024));
+  for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
+    CellInfo& info = c->info();
+    for (int i = 0; i < 4; ++i) {
+      const std::int32_t old = info.centre[i];
+      if (old < 0) continue;
+      const std::uint8_t fl = info.flags[i];
+      if (!(fl & RESTRICTED)) {
+        info.centre[i] = -1;
+        continue;
+      }
+      if (!(fl & OUTWARD)) continue;  // the outward side moves it for both
+      const auto idx = static_cast<std::int32_t>(kept.size() / 3);
+      kept.insert(kept.end(), centres_.begin() + 3 * old,
+                  centres_.begin() + 3 * old + 3);
+      Cell_handle nb = c->neighbor(i);
+      info.centre[i] = idx;
+      nb->info().centre[nb->index(c)] = idx;
+    }
+  }
+  centres_.swap(kept);
+}
+
+ChangedFacets RestrictedDelaunay::changed_facets(
+    std::size_t max_facets, const SegmentSampling& sampling) {
   if (!last_new_.empty()) {
-    // Cells created since the last round: exactly those around new vertices.
+    // Cells created since the last round: exactly those around new vertices,
+    // gathered chunk by chunk.  No chunk is pending at a round's start.
     ++round_;
+    compact_centres();
     fresh_.clear();
     cursor_ = 0;
+    vertex_cursor_ = 0;
     round_vertices_.swap(last_new_);
-    std::vector<Cell_handle> around;
-    for (Vertex_handle v : round_vertices_) {
-      around.clear();
-      dt_.incident_cells(v, std::back_inserter(around));
-      for (Cell_handle c : around) {
-        CellInfo& info = c->info();
-        if (info.stamp == round_) continue;
-        info.stamp = round_;
-        info.order = static_cast<std::int32_t>(fresh_.size());
-        info.flags = {0, 0, 0, 0};
-        fresh_.push_back(c);
-      }
-    }
     last_new_.clear();
   }
   ++call_;
   if (max_facets == 0) max_facets = static_cast<std::size_t>(-1);
 
   ChangedFacets out;
-  // About two facets and one Voronoi vertex per new cell.
-  const std::size_t guess =
-      std::min(max_facets, 2 * (fresh_.size() - cursor_)) + 16;
+  const std::size_t guess = std::min<std::size_t>(max_facets, 1 << 16) + 16;
   out.tri.reserve(3 * guess);
   out.seg.reserve(6 * guess);
   out.end_index.reserve(2 * guess);
   out.rho.reserve(guess);
   out.ends.reserve(3 * guess);
+  out.samples.reserve(guess, 6);
   Chunk chunk;
   chunk.facets.reserve(guess);
   chunk.swapped.reserve(guess);
@@ -168,18 +216,19 @@ ChangedFacets RestrictedDelaunay::changed_facets(std::size_t max_facets) {
     CellInfo& info = c->info();
     if (info.end_stamp != call_) {
       info.end_stamp = call_;
-      info.end_idx = static_cast<std::int64_t>(out.ends.size() / 3);
+      info.end_idx = static_cast<std::int32_t>(out.ends.size() / 3);
       const Vec3& p = circumcentre(c);
       out.ends.insert(out.ends.end(), p.begin(), p.end());
     }
-    return info.end_idx;
+    return static_cast<std::int64_t>(info.end_idx);
   };
   auto point_end = [&](const Vec3& p) {
     out.ends.insert(out.ends.end(), p.begin(), p.end());
     return static_cast<std::int64_t>(out.ends.size() / 3 - 1);
   };
-  for (; cursor_ < fresh_.size() && chunk.facets.size() < max_facets; ++cursor_) {
-    Cell_handle c = fresh_[cursor_];
+  while (chunk.facets.size() < max_facets) {
+    if (cursor_ == fresh_.size() && !gather_next_vertex()) break;
+    Cell_handle c = fresh_[cursor_++];
     circumcentre(c);
     for (int i = 0; i < 4; ++i) {
       Cell_handle nb = c->neighbor(i);
@@ -209,9 +258,12 @@ ChangedFacets RestrictedDelaunay::changed_facets(std::size_t max_facets) {
       out.tri.insert(out.tri.end(), t.begin(), t.end());
       out.seg.insert(out.seg.end(), a.begin(), a.end());
       out.seg.insert(out.seg.end(), b.begin(), b.end());
-      out.rho.push_back(std::sqrt(CGAL::squared_radius(
+      const double rho = std::sqrt(CGAL::squared_radius(
           c->vertex((i + 1) & 3)->point(), c->vertex((i + 2) & 3)->point(),
-          c->vertex((i + 3) & 3)->point())));
+          c->vertex((i + 3) & 3)->point()));
+      out.rho.push_back(rho);
+      const Vec3 apex = to_vec(samples_[t[0]]->point());
+      out.samples.add(a.data(), b.data(), apex.data(), rho, sampling);
       out.end_index.push_back(a == a0 ? cell_end(ca) : point_end(a));
       out.end_index.push_back(b == b0 ? cell_end(cb) : point_end(b));
       chunk.facets.emplace_back(c, i);
@@ -251,22 +303,26 @@ void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
                            (((flags[k] & OUTWARD) != 0) != (chunk.swapped[k] != 0));
     c->info().flags[i] = f | (out_to_nb ? OUTWARD : 0);
     nb->info().flags[j] = f | ((f & RESTRICTED) && !out_to_nb ? OUTWARD : 0);
-    const double* x = centres + 3 * k;
-    for (int d = 0; d < 3; ++d) {
-      c->info().centre[i][d] = x[d];
-      nb->info().centre[j][d] = x[d];
+    std::int32_t idx = -1;
+    if (f & RESTRICTED) {
+      idx = static_cast<std::int32_t>(centres_.size() / 3);
+      centres_.insert(centres_.end(), centres + 3 * k, centres + 3 * k + 3);
     }
+    c->info().centre[i] = idx;
+    nb->info().centre[j] = idx;
   }
 }
 
 void RestrictedDelaunay::restart_round() {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!pending_.empty() || cursor_ < fresh_.size())
+  if (round_unfinished())
     last_new_.insert(last_new_.begin(), round_vertices_.begin(),
                      round_vertices_.end());
   pending_.clear();
   fresh_.clear();
   cursor_ = 0;
+  round_vertices_.clear();
+  vertex_cursor_ = 0;
 }
 
 FacetList RestrictedDelaunay::facets_with(std::uint8_t mask) const {
@@ -286,8 +342,12 @@ FacetList RestrictedDelaunay::facets_with(std::uint8_t mask) const {
       out.tri.push_back(c->vertex(a)->info().id);
       out.tri.push_back(c->vertex(d)->info().id);
       out.tri.push_back(c->vertex(b)->info().id);
-      out.centre.insert(out.centre.end(), info.centre[i].begin(),
-                        info.centre[i].end());
+      const std::int32_t idx = info.centre[i];
+      if (idx >= 0)
+        out.centre.insert(out.centre.end(), centres_.begin() + 3 * idx,
+                          centres_.begin() + 3 * idx + 3);
+      else
+        out.centre.insert(out.centre.end(), 3, 0.0);
     }
   }
   return out;

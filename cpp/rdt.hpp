@@ -20,6 +20,8 @@
 #include <CGAL/Triangulation_data_structure_3.h>
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
 
+#include "sampling.hpp"
+
 namespace rdmesh {
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
@@ -41,13 +43,17 @@ struct VertexInfo {
   std::int64_t id = -2;  // -1 for dummies, >= 0 for samples
 };
 
+// Kept small (64 bytes): cell size is a large part of insertion time and of
+// the memory of a run.
 struct CellInfo {
-  std::array<double, 3> cc{};                    // cached circumcentre
-  std::array<std::array<double, 3>, 4> centre{}; // surface centre per facet
+  std::array<double, 3> cc{};  // cached circumcentre
+  // Surface centre per facet, as an index into RestrictedDelaunay::centres_
+  // (both sides of a facet share it; -1: none).
+  std::array<std::int32_t, 4> centre{-1, -1, -1, -1};
   std::array<std::uint8_t, 4> flags{};
   std::int32_t stamp = -1;  // round in which the cell was reported as new
   std::int32_t order = -1;  // position in that round's list of new cells
-  std::int64_t end_idx = -1;    // index into ChangedFacets::ends ...
+  std::int32_t end_idx = -1;    // index into ChangedFacets::ends ...
   std::int32_t end_stamp = -1;  // ... valid for one changed_facets call
   bool has_cc = false;
 };
@@ -68,6 +74,7 @@ struct ChangedFacets {
   std::vector<std::int64_t> end_index;  // k*2
   std::vector<double> ends;             // u*3
   std::vector<double> rho;              // k facet circumradii
+  SegmentSamples samples;  // per facet, its apex the smallest-id vertex
 };
 
 // Restricted facets, oriented outward, with their surface centres.
@@ -91,7 +98,9 @@ class RestrictedDelaunay {
   // sets them, for the oldest chunk not yet updated (same order and count).
   // One update_facets may run while the next chunk is being computed.  An
   // insert before the round is fully updated reports the round again.
-  ChangedFacets changed_facets(std::size_t max_facets = 0);
+  // Each segment comes with its samples for the crossing search.
+  ChangedFacets changed_facets(std::size_t max_facets = 0,
+                               const SegmentSampling& sampling = {});
   void update_facets(const std::uint8_t* flags, const double* centres,
                      std::size_t n);
 
@@ -129,6 +138,9 @@ class RestrictedDelaunay {
   const std::array<double, 3>& circumcentre(Cell_handle c) const;
   bool is_dummy(Vertex_handle v) const;
   bool clip(std::array<double, 3>& a, std::array<double, 3>& b) const;
+  bool gather_next_vertex();
+  bool round_unfinished() const;
+  void compact_centres();
 
   Delaunay dt_;
   std::array<double, 3> c0_;
@@ -145,8 +157,15 @@ class RestrictedDelaunay {
   std::deque<Chunk> pending_;
   mutable std::mutex mutex_;
   std::vector<Vertex_handle> round_vertices_;  // inserted before this round
-  std::vector<Cell_handle> fresh_;  // cells new in this round
+  // Cells new in this round, gathered lazily around round_vertices_ (so the
+  // first chunk of a round comes quickly).
+  std::vector<Cell_handle> fresh_;
   std::size_t cursor_ = 0;          // next cell of fresh_ to report
+  std::size_t vertex_cursor_ = 0;   // next vertex whose cells to gather
+  // Surface centres of restricted facets (xyz); cells index into it.  Grows
+  // by update_facets, compacted at the start of a round when mostly dead.
+  std::vector<double> centres_;
+  std::vector<Cell_handle> around_;  // scratch
   std::int32_t round_ = 0;
   std::int32_t call_ = 0;
   Vertex_handle hint_;

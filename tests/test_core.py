@@ -9,7 +9,7 @@ import pytest
 from meshcheck import face_normals
 from rdmesh import _rdt
 from rdmesh.criteria import FacetCriteria, circumradii
-from rdmesh.facets import evaluate_facets
+from rdmesh.facets import DualSamples, evaluate_facets
 from rdmesh.refine import BAD, OUTWARD, RESTRICTED
 from rdmesh.surfaces import SURFACES
 
@@ -126,7 +126,7 @@ def test_changed_facets_are_delaunay_facets_with_clipped_duals():
     rng = np.random.default_rng(3)
     rdt = _rdt_new(radius=1.5)
     rdt.insert(rng.uniform(-1, 1, (60, 3)))
-    tri, seg, end_index, ends, rho = rdt.changed_facets()
+    tri, seg, end_index, ends, rho, samples = rdt.changed_facets()
     assert np.all(tri[:, 0] < tri[:, 1]) and np.all(tri[:, 1] < tri[:, 2])
     assert len(np.unique(tri, axis=0)) == len(tri)
     assert np.all(rdt.is_facet(tri))
@@ -141,6 +141,10 @@ def test_changed_facets_are_delaunay_facets_with_clipped_duals():
     assert len(np.unique(ends, axis=0)) == len(ends)
     assert len(ends) < 2 * len(tri)
     assert np.allclose(rho, circumradii(P[tri]), rtol=1e-9)
+    # The samples are those of sample_segments with the smallest-id vertex as apex.
+    again = _rdt.sample_segments(seg, P[tri[:, 0]], rho)
+    for got, want in zip(samples, again, strict=True):
+        assert np.array_equal(got, want)
     # After a full pass nothing changed any more.
     rdt.update_facets(np.zeros(len(tri), np.uint8), np.zeros((len(tri), 3)))
     assert len(rdt.changed_facets()[0]) == 0
@@ -217,9 +221,11 @@ def _drive_and_compare(surface, seeds, criteria, max_rounds=60):
     rounds = 0
     for rounds in range(1, max_rounds + 1):  # noqa: B007
         P = rdt.samples()
-        tri, seg, end_index, ends, rho = rdt.changed_facets()
+        tri, seg, end_index, ends, rho, samples = rdt.changed_facets()
         assert np.allclose(rho, circumradii(P[tri]), rtol=1e-9)
-        ev = evaluate_facets(surface, P[tri[:, 0]], seg, rho, surface(ends)[end_index])
+        ev = evaluate_facets(
+            surface, P[tri[:, 0]], seg, rho, surface(ends)[end_index], DualSamples(*samples)
+        )
         r = ev.restricted
         bad = _bad(criteria, P[tri], ev)
         flags = r * RESTRICTED | bad * BAD | (r & ev.outward) * OUTWARD
@@ -368,7 +374,7 @@ def _drain(rdt, max_facets):
     """All chunks of a round, updating each with 'restricted' flags."""
     seen = []
     while True:
-        tri, seg, ei, ends, rho = rdt.changed_facets(max_facets)
+        tri, seg, ei, ends, rho, _ = rdt.changed_facets(max_facets)
         if len(tri) == 0:
             return seen
         assert len(tri) <= max_facets + 12  # a chunk ends with its last cell
@@ -434,3 +440,82 @@ def test_restart_round_hands_out_the_whole_round_again():
     assert _as_set(tri) <= _as_set(again)
     assert _as_set(rdt.facets(0)[0]) == _as_set(rdt.all_facets()[0])
     rdt.check()
+
+
+# -- samples along dual segments ---------------------------------------------------
+
+
+def test_sample_segments_layout_and_spacing():
+    """Samples run from 0 to each segment's length, interior points lie on the
+    segment, and neighbouring samples are about one empty-ball radius apart."""
+    rng = np.random.default_rng(8)
+    k = 400
+    tri_pts = rng.normal(size=(k, 3, 3))
+    a, b, c = tri_pts[:, 0], tri_pts[:, 1], tri_pts[:, 2]
+    rho = circumradii(tri_pts)
+    n = np.cross(b - a, c - a)
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    # Circumcentre of each triangle, and a segment along its normal line.
+    ab, ac = b - a, c - a
+    cc = (
+        a
+        + (
+            np.cross(np.cross(ab, ac), ab) * np.einsum("ij,ij->i", ac, ac)[:, None]
+            + np.cross(ac, np.cross(ab, ac)) * np.einsum("ij,ij->i", ab, ab)[:, None]
+        )
+        / (2 * np.einsum("ij,ij->i", np.cross(ab, ac), np.cross(ab, ac)))[:, None]
+    )
+    t0, t1 = np.sort(rng.uniform(-20, 20, (2, k)) * rho, axis=0)
+    seg = np.stack([cc + t0[:, None] * n, cc + t1[:, None] * n], axis=1)
+    offsets, s, interior = _rdt.sample_segments(seg, a, rho, per_radius=2.0, max_intervals=200)
+    counts = np.diff(offsets)
+    length = np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1)
+    assert offsets[0] == 0 and offsets[-1] == len(s)
+    assert np.all(counts >= 4)  # at least min_intervals = 3 intervals
+    assert len(interior) == len(s) - 2 * k
+    seg_of = np.repeat(np.arange(k), counts)
+    assert np.all(s[offsets[:-1]] == 0) and np.allclose(s[offsets[1:] - 1], length)
+    steps = np.diff(s)[seg_of[1:] == seg_of[:-1]]
+    assert np.all(steps >= 0)
+    # Interior points are start + s * unit direction.
+    inner = np.ones(len(s), bool)
+    inner[offsets[:-1]] = inner[offsets[1:] - 1] = False
+    u = (seg[:, 1] - seg[:, 0]) / length[:, None]
+    want = seg[seg_of[inner], 0] + s[inner, None] * u[seg_of[inner]]
+    assert np.allclose(interior, want, atol=1e-12)
+    # Spacing: 2 samples per unit of asinh(sigma / rho), so a gap is at most
+    # 0.5 x the larger ball radius, which is at most e^0.5 x the nearer one.
+    sigma = t0[seg_of] + s  # distance from the circumcentre along the line
+    ball = np.sqrt(rho[seg_of] ** 2 + sigma**2)
+    gap = np.diff(s)
+    same = seg_of[1:] == seg_of[:-1]
+    near_ball = np.minimum(ball[1:], ball[:-1])[same]
+    assert np.all(gap[same] <= 0.5 * np.exp(0.5) * near_ball * (1 + 1e-9))
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"per_radius": 0.0}, "per_radius"),
+        ({"min_intervals": 0}, "min_intervals"),
+        ({"min_intervals": 5, "max_intervals": 4}, "max_intervals"),
+    ],
+)
+def test_sample_segments_rejects_bad_spec(kwargs, match):
+    seg = np.zeros((1, 2, 3))
+    seg[0, 1, 0] = 1.0
+    with pytest.raises(ValueError, match=match):
+        _rdt.sample_segments(seg, np.zeros((1, 3)), np.ones(1), **kwargs)
+
+
+def test_sample_segments_rejects_bad_shapes():
+    with pytest.raises(ValueError, match="seg"):
+        _rdt.sample_segments(np.zeros((2, 3)), np.zeros((2, 3)), np.ones(2))
+    with pytest.raises(ValueError, match="apex"):
+        _rdt.sample_segments(np.zeros((2, 2, 3)), np.zeros((3, 3)), np.ones(2))
+    with pytest.raises(ValueError, match="rho"):
+        _rdt.sample_segments(np.zeros((2, 2, 3)), np.zeros((2, 3)), np.ones(3))
+    bad = np.zeros((1, 2, 3))
+    bad[0, 0, 0] = np.nan
+    with pytest.raises(ValueError, match="non-finite"):
+        _rdt.sample_segments(bad, np.zeros((1, 3)), np.ones(1))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import rdmesh
-from rdmesh.roots import Crossings, bucket_samples, line_crossings
+from rdmesh.roots import SegmentSamples, line_crossings
 from rdmesh.surfaces import SURFACES
 from scipy.optimize import brentq
 
@@ -47,20 +47,11 @@ def _segments_through_torus(rng, k):
 
 
 def _crossings(surface, o, d, length, n_intervals, xatol):
-    """line_crossings on segments given in any order, through bucket_samples.
-
-    Returns the crossings re-indexed to the input segments (sorted by segment,
-    then position) and each segment's sample positions.
-    """
-    order, buckets = bucket_samples(length, n_intervals)
-    cr = line_crossings(surface, o[order], d[order], buckets, xatol)
-    samples = [None] * len(length)
-    for rows, S in buckets:
-        for row, s_row in zip(order[rows], S, strict=True):
-            samples[row] = s_row
-    seg = order[cr.segment]
-    idx = np.lexsort((cr.s, seg))
-    return (Crossings(seg[idx], cr.s[idx], cr.point[idx], cr.rising[idx]), samples)
+    """line_crossings with uniform samples; also each segment's sample positions."""
+    samples = SegmentSamples.uniform(length, n_intervals)
+    cr = line_crossings(surface, o, d, samples, xatol)
+    off = samples.offsets
+    return cr, [samples.s[off[i] : off[i + 1]] for i in range(len(length))]
 
 
 def _scalar_crossings(raw, o, d, s_row, vectorised_scan=False):
@@ -205,7 +196,8 @@ def test_no_crossings():
     cr, _ = _crossings(s, o, d, np.array([1.0, 0.5]), np.full(2, 8), 1e-12)
     assert cr.segment.shape == (0,) and cr.point.shape == (0, 3)
     assert cr.count(2).tolist() == [0, 0]
-    assert line_crossings(s, o, d, [], 1e-12).count(2).tolist() == [0, 0]
+    empty = SegmentSamples(np.zeros(1, np.int64), np.zeros(0))
+    assert line_crossings(s, o[:0], d[:0], empty, 1e-12).count(2).tolist() == [0, 0]
 
 
 @pytest.mark.parametrize("k", [10, 3000])
@@ -223,29 +215,22 @@ def test_few_calls_of_f(k):
     assert max(cs.calls[1:]) <= 2 * len(cr.segment)
 
 
-def test_bucket_samples_layout():
+def test_uniform_samples_layout():
     rng = np.random.default_rng(3)
     length = rng.uniform(0.1, 2.0, 50)
     want = rng.integers(0, 200, 50)
-    order, buckets = bucket_samples(length, want)
-    assert sorted(order.tolist()) == list(range(50))
-    covered = np.zeros(50, int)
-    for rows, S in buckets:
-        covered[rows] += 1
-        seg = order[rows]
-        n = S.shape[1] - 1
-        assert S.shape[0] == len(seg)
-        assert np.all(n >= np.minimum(want[seg], 32))  # rounded up (large ones capped)
-        assert np.array_equal(S[:, 0], np.zeros(len(seg)))
-        assert np.allclose(S[:, -1], length[seg])
-        assert np.allclose(np.diff(S, axis=1), (length[seg] / n)[:, None])
-    assert np.all(covered == 1)  # every segment in exactly one bucket
-    # A warp moves the interior samples but keeps the ends.
-    order, buckets = bucket_samples(length, want, warp=lambda rows, u: length[rows, None] * u**2)
-    for rows, S in buckets:
-        seg = order[rows]
-        u = np.linspace(0, 1, S.shape[1])
-        assert np.allclose(S, length[seg, None] * u**2)
+    samples = SegmentSamples.uniform(length, want)
+    off, S = samples.offsets, samples.s
+    n = np.maximum(want, 1)
+    assert np.array_equal(np.diff(off), n + 1)
+    seg = samples.segment_of()
+    assert np.array_equal(seg, np.repeat(np.arange(50), n + 1))
+    assert np.all(S[off[:-1]] == 0) and np.array_equal(S[off[1:] - 1], length)
+    same = seg[1:] == seg[:-1]
+    assert np.allclose(np.diff(S)[same], (length / n)[seg[1:][same]])
+    inner = samples.interior()
+    assert inner.sum() == len(S) - 2 * 50
+    assert not inner[off[:-1]].any() and not inner[off[1:] - 1].any()
 
 
 def test_hidden_pair_between_samples():
@@ -254,7 +239,7 @@ def test_hidden_pair_between_samples():
     s = SURFACES["sphere"].make()
     o = np.array([[-1.2, 0.99, 0.0]])
     d = np.array([[1.0, 0.0, 0.0]])
-    cr, (s_row,) = _crossings(s, o, d, np.array([3.0]), np.array([1]), 1e-13)
+    cr, (s_row,) = _crossings(s, o, d, np.array([3.0]), np.array([3]), 1e-13)
     values = s.f(o + s_row[:, None] * d)
     assert np.all(values > 0)  # every sample is outside
     x = np.sqrt(1 - 0.99**2)

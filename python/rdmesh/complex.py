@@ -60,22 +60,24 @@ def complex_status(faces: np.ndarray, n_vertices: int) -> ComplexStatus:
     )
     edge_key, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
     facet_edges = inverse.reshape(3, F).T
-    # Fans: nodes are spokes (v, w) = facet edges seen from v; each facet joins
-    # its two spokes at each corner, so a fan is a connected set of spokes.
-    v = np.concatenate([a, b, c])
-    w1 = np.concatenate([b, c, a])
-    w2 = np.concatenate([c, a, b])
-    s1 = v * n_vertices + w1
-    s2 = v * n_vertices + w2
-    spokes, inv = np.unique(np.concatenate([s1, s2]), return_inverse=True)
-    m = len(spokes)
+    # Fans: nodes are spokes, an edge seen from one of its ends (2 per edge:
+    # 2 e + [seen from the larger id]); each facet joins the two spokes at
+    # each corner, so a fan is a connected set of spokes.
+    e_ab, e_bc, e_ca = facet_edges[:, 0], facet_edges[:, 1], facet_edges[:, 2]
+    s1 = np.concatenate([2 * e_ab + (a > b), 2 * e_bc + (b > c), 2 * e_ca + (c > a)])
+    s2 = np.concatenate([2 * e_ca + (a > c), 2 * e_ab + (b > a), 2 * e_bc + (c > b)])
     fans = np.zeros(n_vertices, np.int64)
+    m = 2 * len(edge_key)
     if m:
-        g = coo_matrix((np.ones(len(s1)), (inv[: len(s1)], inv[len(s1) :])), shape=(m, m))
-        _, label = connected_components(g, directed=False)
-        owner = spokes // n_vertices
-        pairs = np.unique(np.column_stack([owner, label]), axis=0)
-        fans = np.bincount(pairs[:, 0], minlength=n_vertices)
+        g = coo_matrix((np.ones(len(s1), np.int8), (s1, s2)), shape=(m, m))
+        n_fans, label = connected_components(g, directed=False)
+        # A spoke's owner: the larger id for odd spokes, else the smaller.
+        lo, hi = edge_key // n_vertices, edge_key % n_vertices
+        owner = np.column_stack([lo, hi]).ravel()
+        # Every spoke of a fan has the same owner.
+        fan_owner = np.empty(n_fans, np.int64)
+        fan_owner[label] = owner
+        fans = np.bincount(fan_owner, minlength=n_vertices)
     return ComplexStatus(edge_key, counts, facet_edges, fans)
 
 

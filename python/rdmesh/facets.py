@@ -13,11 +13,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _rdt
 from .oracles import ImplicitSurface
-from .roots import bucket_samples, line_crossings
+from .roots import SegmentSamples, line_crossings
 
 #: Samples per unit of asinh(distance / circumradius): spacing about r.
 SAMPLES_PER_RADIUS = 1.0
+#: Bounds on the intervals per segment.
+MIN_INTERVALS, MAX_INTERVALS = 3, 64
+#: What the core's changed_facets and sample_segments take.
+SAMPLING = {
+    "per_radius": SAMPLES_PER_RADIUS,
+    "min_intervals": MIN_INTERVALS,
+    "max_intervals": MAX_INTERVALS,
+}
 #: A crossing whose direction makes |cos| below this with the gradient is tangential.
 TANGENCY_COS = 1e-3
 #: Root tolerance relative to the bounding radius. Fixed per run (not per
@@ -40,24 +49,52 @@ class FacetEval:
         return self.n_cross > 0
 
 
+@dataclass
+class DualSamples:
+    """Samples of k dual segments, as the core makes them (see
+    ``_rdt.sample_segments``): flat positions plus the interior points."""
+
+    offsets: np.ndarray  # (k + 1,)
+    s: np.ndarray  # (P,)
+    interior: np.ndarray  # (P - 2k, 3)
+
+    @classmethod
+    def of(cls, seg: np.ndarray, apex: np.ndarray, rho: np.ndarray) -> DualSamples:
+        return cls(*_rdt.sample_segments(seg, apex, rho, **SAMPLING))
+
+    def take(self, sl: slice) -> DualSamples:
+        """The samples of segments ``sl`` (a contiguous slice)."""
+        a, b, _ = sl.indices(len(self.offsets) - 1)
+        off = self.offsets
+        # Interior points: all samples but two per segment.
+        return DualSamples(
+            off[a : b + 1] - off[a],
+            self.s[off[a] : off[b]],
+            self.interior[off[a] - 2 * a : off[b] - 2 * b],
+        )
+
+
 def evaluate_facets(
     surface: ImplicitSurface,
     apex: np.ndarray,
     seg: np.ndarray,
     rho: np.ndarray,
     end_values: np.ndarray | None = None,
+    samples: DualSamples | None = None,
 ) -> FacetEval:
     """Find the crossings of each facet's dual segment.
 
     Parameters
     ----------
     surface : ImplicitSurface
-    apex : (k, 3) one vertex of each facet.
+    apex : (k, 3) the vertex with the smallest id of each facet.
     seg : (k, 2, 3) dual segments (clipped to the bounding sphere).
     rho : (k,) facet circumradii.
     end_values : (k, 2) float, optional
         ``f`` at both ends of each segment, when known (the core reports
         shared Voronoi vertices once, so ``f`` is evaluated once per vertex).
+    samples : DualSamples, optional
+        The segments' samples, when the core made them already.
 
     Returns
     -------
@@ -69,35 +106,33 @@ def evaluate_facets(
     )
     if k == 0:
         return out
+    if samples is None:
+        samples = DualSamples.of(seg, apex, rho)
+    flat = SegmentSamples(samples.offsets, samples.s)
+    values = np.empty(len(flat.s))
+    interior = flat.interior()
+    if end_values is None:
+        v = surface(np.concatenate([samples.interior, seg[:, 0], seg[:, 1]]))
+        values[interior] = v[: len(samples.interior)]
+        end_values = v[len(samples.interior) :].reshape(2, k).T
+    else:
+        values[interior] = surface(samples.interior)
+    values[flat.offsets[:-1]] = end_values[:, 0]
+    values[flat.offsets[1:] - 1] = end_values[:, 1]
     start = seg[:, 0]
     d = seg[:, 1] - start
     length = np.sqrt(np.einsum("ij,ij->i", d, d))
     u = d / np.where(length > 0, length, 1.0)[:, None]
-    rho = np.where(np.isfinite(rho) & (rho > 0), rho, np.maximum(length, 1e-300))
-    # Distance along the line from the facet's circumcentre (the closest point
-    # to its vertices); the ball radius there is sqrt(rho^2 + sigma^2), so
-    # sampling evenly in asinh(sigma / rho) spaces samples by the ball radius.
-    sigma0 = np.einsum("ij,ij->i", u, start - apex)
-    w0 = np.arcsinh(sigma0 / rho)
-    w1 = np.arcsinh((sigma0 + length) / rho)
-    n = np.ceil((w1 - w0) * SAMPLES_PER_RADIUS).astype(np.int64)
-    n[length == 0] = 0
-
-    def warp(rows, frac):
-        w = w0[rows, None] + frac * (w1 - w0)[rows, None]
-        return rho[rows, None] * np.sinh(w) - sigma0[rows, None]
-
-    order, buckets = bucket_samples(length, n, warp=warp)
-    if end_values is not None:
-        end_values = end_values[order]
     xatol = ROOT_ATOL * surface.radius
-    cr = line_crossings(surface, start[order], u[order], buckets, xatol, end_values)
+    cr = line_crossings(surface, start, u, flat, xatol, values)
     if cr.segment.size == 0:
         return out
-    segment = order[cr.segment]
+    segment = cr.segment
     out.n_cross = np.bincount(segment, minlength=k)
-    # Representative crossing: largest |sigma|, i.e. the largest ball.
-    far = np.abs(sigma0[segment] + cr.s)
+    # Representative crossing: the largest ball, i.e. the largest distance from
+    # the facet's circumcentre along the line.
+    sigma0 = np.einsum("ij,ij->i", u[segment], start[segment] - apex[segment])
+    far = np.abs(sigma0 + cr.s)
     pick_order = np.lexsort((far, segment))
     last = np.r_[segment[pick_order][1:] != segment[pick_order][:-1], True]
     pick = pick_order[last]

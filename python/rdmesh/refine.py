@@ -30,7 +30,7 @@ from . import _rdt
 from ._errors import BudgetExceeded, Interrupted
 from .complex import complex_status
 from .criteria import FacetCriteria
-from .facets import evaluate_facets
+from .facets import SAMPLING, DualSamples, evaluate_facets
 from .oracles import ImplicitSurface
 from .result import SurfaceMesh
 from .seeding import critical_points, grid_scan, surface_probes
@@ -57,8 +57,9 @@ MIN_SPACING = 1e-7
 TOPOLOGY_FLOOR = 0.01
 #: Facets per chunk from the core, and per evaluation slice: bound the memory
 #: of a round's temporaries.
-CORE_CHUNK = 1 << 17
+CORE_CHUNK = 1 << 16
 CHUNK = 1 << 16
+FIRST_CHUNK = 1 << 13
 #: Names of the Boissonnat-Oudot manifold stages (CGAL's words) per topology test.
 BO_STAGES = {"voronoi_facet": "edge", "disk": "vertex", "isolated": "isolated"}
 #: Safety cap on rounds; smooth inputs need tens.
@@ -271,21 +272,24 @@ class Refiner:
         samples of each slice.
         """
         with ThreadPoolExecutor(1) as core:
-            job = core.submit(st.rdt.changed_facets, CORE_CHUNK)
+            # A small first chunk: Python waits for it with nothing to overlap.
+            job = core.submit(st.rdt.changed_facets, FIRST_CHUNK, **SAMPLING)
             while True:
                 with _timed(st, "changed_facets"):
-                    tri, seg, end_index, ends, rho = job.result()
+                    tri, seg, end_index, ends, rho, samples = job.result()
                 if len(tri) == 0:
                     return
-                job = core.submit(st.rdt.changed_facets, CORE_CHUNK)
+                job = core.submit(st.rdt.changed_facets, CORE_CHUNK, **SAMPLING)
                 with _timed(st, "evaluate"):
                     end_f = self.surface(ends)[end_index]
-                    flags, centres = self._evaluate(st, tri, seg, end_f, rho)
+                    flags, centres = self._evaluate(
+                        st, tri, seg, end_f, rho, DualSamples(*samples)
+                    )
                 with _timed(st, "update_facets"):
                     st.rdt.update_facets(flags, centres)
                 st.changed += len(tri)
 
-    def _evaluate(self, st, tri, seg, end_f, rho):
+    def _evaluate(self, st, tri, seg, end_f, rho, samples):
         """Flags (restricted, bad, topology, outward) and surface centres."""
         k = len(tri)
         flags = np.zeros(k, np.uint8)
@@ -293,7 +297,9 @@ class Refiner:
 
         def work(sl: slice) -> None:
             t = tri[sl]
-            ev = evaluate_facets(self.surface, st.vertices[t[:, 0]], seg[sl], rho[sl], end_f[sl])
+            ev = evaluate_facets(
+                self.surface, st.vertices[t[:, 0]], seg[sl], rho[sl], end_f[sl], samples.take(sl)
+            )
             r = ev.restricted
             bad = np.zeros(len(t), bool)
             bad[r] = self.criteria.bad(st.vertices[t[r]], ev.centre[r], ev.radius[r])

@@ -18,9 +18,6 @@ from .oracles import ImplicitSurface
 
 log = logging.getLogger("rdmesh")
 
-#: Sample-count buckets per segment; segments are grouped so arrays stay rectangular.
-_BUCKETS = (3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
-
 
 @dataclass
 class Crossings:
@@ -48,57 +45,48 @@ class Crossings:
         return np.bincount(self.segment, minlength=n_segments)
 
 
-def bucket_samples(
-    lengths: np.ndarray, n_intervals: np.ndarray, warp=None
-) -> tuple[np.ndarray, list[tuple[slice, np.ndarray]]]:
-    """Group segments by sample count and build their sample positions.
+@dataclass
+class SegmentSamples:
+    """Sample positions along k segments, flat.
 
-    Parameters
-    ----------
-    lengths : (k,) segment lengths.
-    n_intervals : (k,) wanted number of intervals; rounded up to a bucket size.
-    warp : callable, optional
-        ``warp(rows, u)`` maps uniform fractions ``u`` of shape ``(len(rows), n+1)``
-        to distances along the segments ``rows`` (indices into the inputs).
-        Default: uniform spacing.
-
-    Returns
-    -------
-    order : (k,) int
-        Segment order that makes every bucket contiguous; the slices below
-        index segments permuted by ``order``.
-    buckets : list of (slice, S)
-        ``S`` is ``(len, n+1)`` distances from each segment's start, with
-        ``S[:, 0] = 0`` and ``S[:, -1] = length``.
+    Segment ``i``'s distances from its start are ``s[offsets[i]:offsets[i + 1]]``:
+    increasing, the first 0 and the last its length.
     """
-    want = np.clip(n_intervals, _BUCKETS[0], _BUCKETS[-1])
-    which = np.searchsorted(np.asarray(_BUCKETS), want)
-    order = np.argsort(which, kind="stable")
-    counts = np.bincount(which, minlength=len(_BUCKETS))
-    out, start = [], 0
-    for n, c in zip(_BUCKETS, counts, strict=False):
-        if c == 0:
-            continue
-        rows = order[start : start + c]
-        u = np.linspace(0.0, 1.0, n + 1)[None, :]
-        if warp is None:
-            S = u * lengths[rows, None]
-        else:
-            S = warp(rows, u)
-            S[:, 0] = 0.0
-            S[:, -1] = lengths[rows]
-        out.append((slice(start, start + c), S))
-        start += c
-    return order, out
+
+    offsets: np.ndarray  # (k + 1,) int64
+    s: np.ndarray  # (P,) float64
+
+    @classmethod
+    def uniform(cls, lengths: np.ndarray, n_intervals: np.ndarray) -> SegmentSamples:
+        """``n_intervals`` (at least 1) equal intervals on each segment."""
+        lengths = np.asarray(lengths, dtype=float)
+        n = np.maximum(np.broadcast_to(n_intervals, lengths.shape).astype(np.int64), 1)
+        offsets = np.zeros(len(lengths) + 1, np.int64)
+        np.cumsum(n + 1, out=offsets[1:])
+        seg = np.repeat(np.arange(len(lengths)), n + 1)
+        j = np.arange(offsets[-1]) - offsets[seg]
+        # j / n is exactly 1 at the last sample, so it lands on the length.
+        return cls(offsets, lengths[seg] * (j / n[seg]))
+
+    def segment_of(self) -> np.ndarray:
+        """(P,) the segment of every sample."""
+        return np.repeat(np.arange(len(self.offsets) - 1), np.diff(self.offsets))
+
+    def interior(self) -> np.ndarray:
+        """(P,) bool: every sample but the two ends of its segment."""
+        mask = np.ones(len(self.s), bool)
+        mask[self.offsets[:-1]] = False
+        mask[self.offsets[1:] - 1] = False
+        return mask
 
 
 def line_crossings(
     surface: ImplicitSurface,
     origin: np.ndarray,
     direction: np.ndarray,
-    samples: list[tuple[np.ndarray, np.ndarray]],
+    samples: SegmentSamples,
     xatol: float,
-    end_values: np.ndarray | None = None,
+    values: np.ndarray | None = None,
 ) -> Crossings:
     """Find every sign change of ``f`` along segments ``origin + s * direction``.
 
@@ -111,59 +99,37 @@ def line_crossings(
     surface : ImplicitSurface
     origin : (k, 3) segment starts.
     direction : (k, 3) unit directions.
-    samples : list of (rows, S)
-        ``rows`` a slice of the segments, ``S`` their sample distances (see
-        :func:`bucket_samples`; the segments must be in its ``order``).
+    samples : SegmentSamples
+        Where to sample each segment.
     xatol : absolute tolerance on each crossing's position.
-    end_values : (k, 2) float, optional
-        ``f`` at both ends of every segment, when already known.
+    values : (P,) float, optional
+        ``f`` at every sample, when already known; otherwise one call of ``f``.
 
     Returns
     -------
     Crossings
     """
-    if not samples:
+    s = samples.s
+    if s.size == 0:
         return _empty()
-    values = _sample_values(surface, origin, direction, samples, end_values)
-    seg, lo, hi, rising, dips = [], [], [], [], []
-    for (rows, S), F in zip(samples, values, strict=False):
-        inside = F < 0.0
-        r, j = np.nonzero(inside[:, :-1] != inside[:, 1:])
-        seg.append(rows.start + r)
-        lo.append(S[r, j])
-        hi.append(S[r, j + 1])
-        rising.append(inside[r, j])
-        dips.append(_dips(rows, S, F, inside))
-    extra = _split_dips(surface, origin, direction, *map(np.concatenate, zip(*dips, strict=False)))
-    for part, add in zip((seg, lo, hi, rising), extra, strict=False):
-        part.append(add)
-    seg = np.concatenate(seg)
+    seg_of = samples.segment_of()
+    if values is None:
+        values = surface(origin[seg_of] + s[:, None] * direction[seg_of])
+    inside = values < 0.0
+    # Neighbouring samples of one segment.
+    same = seg_of[1:] == seg_of[:-1]
+    j = np.flatnonzero(same & (inside[1:] != inside[:-1]))
+    seg, lo, hi, rising = seg_of[j], s[j], s[j + 1], inside[j]
+    extra = _split_dips(surface, origin, direction, *_dips(seg_of, s, values, inside, same))
+    if extra[0].size:
+        parts = zip((seg, lo, hi, rising), extra, strict=True)
+        seg, lo, hi, rising = (np.concatenate(p) for p in parts)
     if seg.size == 0:
         return _empty()
-    lo, hi, rising = np.concatenate(lo), np.concatenate(hi), np.concatenate(rising)
-    s = _roots(surface, origin[seg], direction[seg], lo, hi, xatol)
-    order = np.lexsort((s, seg))
-    seg, s, rising = seg[order], s[order], rising[order]
-    return Crossings(seg, s, origin[seg] + s[:, None] * direction[seg], rising)
-
-
-def _sample_values(surface, origin, direction, samples, end_values):
-    """``f`` at every sample position, in one call; ``(m, n+1)`` per bucket."""
-    inner = slice(None) if end_values is None else slice(1, -1)
-    pts = [
-        origin[rows, None, :] + S[:, inner, None] * direction[rows, None, :] for rows, S in samples
-    ]
-    flat = surface(np.concatenate([p.reshape(-1, 3) for p in pts]))
-    out, start = [], 0
-    for (rows, S), p in zip(samples, pts, strict=False):
-        F = np.empty(S.shape)
-        F[:, inner] = flat[start : start + p.shape[0] * p.shape[1]].reshape(p.shape[:2])
-        start += p.shape[0] * p.shape[1]
-        if end_values is not None:
-            F[:, 0] = end_values[rows, 0]
-            F[:, -1] = end_values[rows, 1]
-        out.append(F)
-    return out
+    root = _roots(surface, origin[seg], direction[seg], lo, hi, xatol)
+    order = np.lexsort((root, seg))
+    seg, root, rising = seg[order], root[order], rising[order]
+    return Crossings(seg, root, origin[seg] + root[:, None] * direction[seg], rising)
 
 
 def _line_function(surface):
@@ -196,21 +162,22 @@ def _roots(surface, o, d, lo, hi, xatol):
 DIP_FRACTION = 0.25
 
 
-def _dips(rows, S, F, inside):
-    """Samples where |f| has a deep local minimum without a sign change."""
-    if S.shape[1] < 3:
-        return (np.zeros(0, np.int64),) + (np.zeros(0),) * 4
-    a = np.abs(F)
-    mid = a[:, 1:-1]
+def _dips(seg_of, s, values, inside, same):
+    """Samples where |f| has a deep local minimum without a sign change:
+    (segment, left, middle, right sample positions, sign of f there)."""
+    a = np.abs(values)
+    mid, left, right = a[1:-1], a[:-2], a[2:]
     dip = (
-        (mid < DIP_FRACTION * np.maximum(a[:, :-2], a[:, 2:]))
-        & (mid < a[:, :-2])
-        & (mid < a[:, 2:])
+        same[:-1]
+        & same[1:]
+        & (mid < DIP_FRACTION * np.maximum(left, right))
+        & (mid < left)
+        & (mid < right)
+        & (inside[:-2] == inside[1:-1])
+        & (inside[1:-1] == inside[2:])
     )
-    dip &= (inside[:, :-2] == inside[:, 1:-1]) & (inside[:, 1:-1] == inside[:, 2:])
-    r, j = np.nonzero(dip)
-    j = j + 1
-    return rows.start + r, S[r, j - 1], S[r, j], S[r, j + 1], np.where(inside[r, j], -1.0, 1.0)
+    j = np.flatnonzero(dip) + 1
+    return seg_of[j], s[j - 1], s[j], s[j + 1], np.where(inside[j], -1.0, 1.0)
 
 
 def _split_dips(surface, origin, direction, seg, x1, x2, x3, sgn):

@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 from . import _rdt
 from ._errors import BoundingSphereError, EmptySurfaceError
 from .oracles import ImplicitSurface
-from .roots import line_crossings
+from .roots import SegmentSamples, line_crossings
 
 log = logging.getLogger("rdmesh")
 
@@ -128,8 +128,8 @@ def grid_scan(
     origin = np.concatenate(origins)
     direction = np.ascontiguousarray(np.concatenate(dirs))
     cell = np.concatenate(cells)
-    S = np.column_stack([np.zeros(len(origin)), np.full(len(origin), h)])
-    cr = line_crossings(surface, origin, direction, [(slice(0, len(origin)), S)], xatol=1e-9 * R)
+    samples = SegmentSamples.uniform(np.full(len(origin), h), 1)
+    cr = line_crossings(surface, origin, direction, samples, xatol=1e-9 * R)
     points, cell = cr.point, cell[cr.segment]
     # Connected bands of grid cells that contain the surface.
     corners = [

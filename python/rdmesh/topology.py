@@ -51,7 +51,7 @@ from scipy.spatial import cKDTree
 
 from .complex import complex_status, euler_characteristics, largest_incident
 from .oracles import ImplicitSurface
-from .roots import bucket_samples, line_crossings
+from .roots import SegmentSamples, line_crossings
 
 #: The tests, in repair order.
 TESTS = ("voronoi_edge", "voronoi_facet", "disk", "isolated", "silhouette")
@@ -204,9 +204,8 @@ def shoot_from(surface, vertices, ids, tree=None):
     c = np.einsum("ij,ij->i", f, f) - R * R
     length = -b + np.sqrt(np.maximum(b * b - c, 0.0))
     rows = np.flatnonzero(length > 0)
-    order, buckets = bucket_samples(length[rows], np.full(rows.size, 64))
-    rows = rows[order]
-    cr = line_crossings(surface, start[rows], d[rows], buckets, xatol=1e-9 * R)
+    samples = SegmentSamples.uniform(length[rows], 64)
+    cr = line_crossings(surface, start[rows], d[rows], samples, xatol=1e-9 * R)
     if cr.segment.size == 0:
         return np.zeros((0, 3)), np.zeros(0)
     first = np.r_[True, cr.segment[1:] != cr.segment[:-1]]

@@ -1,0 +1,43 @@
+#include "sampling.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rdmesh {
+
+void SegmentSamples::reserve(std::size_t segments, std::size_t per_segment) {
+  offsets.reserve(offsets.size() + segments);
+  s.reserve(s.size() + segments * per_segment);
+  interior.reserve(interior.size() + 3 * segments * per_segment);
+}
+
+void SegmentSamples::add(const double* a, const double* b, const double* apex,
+                         double rho, const SegmentSampling& spec) {
+  const double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  const double inv = len > 0.0 ? 1.0 / len : 0.0;
+  const double u[3] = {d[0] * inv, d[1] * inv, d[2] * inv};
+  if (!(rho > 0.0) || !std::isfinite(rho)) rho = std::max(len, 1e-300);
+  // Signed distance of the start from the facet's circumcentre along u.
+  const double sigma0 = u[0] * (a[0] - apex[0]) + u[1] * (a[1] - apex[1]) +
+                        u[2] * (a[2] - apex[2]);
+  const double w0 = std::asinh(sigma0 / rho);
+  const double w1 = std::asinh((sigma0 + len) / rho);
+  const double want = std::ceil((w1 - w0) * spec.per_radius);
+  std::int64_t n = spec.max_intervals;
+  if (std::isfinite(want))
+    n = std::clamp(static_cast<std::int64_t>(std::max(want, 0.0)),
+                   spec.min_intervals, spec.max_intervals);
+  if (len == 0.0) n = 1;
+  s.push_back(0.0);
+  for (std::int64_t j = 1; j < n; ++j) {
+    const double w = w0 + (w1 - w0) * (static_cast<double>(j) / static_cast<double>(n));
+    const double sj = std::clamp(rho * std::sinh(w) - sigma0, 0.0, len);
+    s.push_back(sj);
+    for (int k = 0; k < 3; ++k) interior.push_back(a[k] + sj * u[k]);
+  }
+  s.push_back(len);
+  offsets.push_back(static_cast<std::int64_t>(s.size()));
+}
+
+}  // namespace rdmesh
