@@ -30,26 +30,27 @@ std::vector<double> rows3(const InArray& a, const char* what) {
   return out;
 }
 
+// Hands the vector's buffer to numpy without a copy (the vector is left empty).
 template <typename T>
-py::array_t<T> to_numpy(const std::vector<T>& v, std::vector<py::ssize_t> shape) {
-  py::array_t<T> out(shape);
-  if (!v.empty()) std::memcpy(out.mutable_data(), v.data(), v.size() * sizeof(T));
-  return out;
+py::array_t<T> to_numpy(std::vector<T>& v, std::vector<py::ssize_t> shape) {
+  auto* owner = new std::vector<T>(std::move(v));
+  py::capsule free_when_done(owner, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  return py::array_t<T>(shape, owner->data(), free_when_done);
 }
 
-py::tuple facet_pair(const rdmesh::ChangedFacets& f) {
+py::tuple facet_pair(rdmesh::ChangedFacets& f) {
   const auto k = static_cast<py::ssize_t>(f.tri.size() / 3);
   return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.seg, {k, 2, 3}));
 }
 
-py::tuple samples_tuple(const rdmesh::SegmentSamples& m) {
+py::tuple samples_tuple(rdmesh::SegmentSamples& m) {
   return py::make_tuple(
       to_numpy(m.offsets, {static_cast<py::ssize_t>(m.offsets.size())}),
       to_numpy(m.s, {static_cast<py::ssize_t>(m.s.size())}),
       to_numpy(m.interior, {static_cast<py::ssize_t>(m.interior.size() / 3), 3}));
 }
 
-py::tuple facet_quad(const rdmesh::ChangedFacets& f) {
+py::tuple facet_quad(rdmesh::ChangedFacets& f) {
   const auto k = static_cast<py::ssize_t>(f.tri.size() / 3);
   const auto u = static_cast<py::ssize_t>(f.ends.size() / 3);
   return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.seg, {k, 2, 3}),
@@ -236,7 +237,7 @@ PYBIND11_MODULE(_rdt, m) {
           py::arg("ids"), "Delaunay neighbours of samples as CSR (offsets, ids).")
       .def("samples",
            [](const RestrictedDelaunay& self) {
-             const std::vector<double> s = self.samples();
+             std::vector<double> s = self.samples();
              return to_numpy(s, {static_cast<py::ssize_t>(s.size() / 3), 3});
            })
       .def_property_readonly("number_of_samples", &RestrictedDelaunay::number_of_samples)

@@ -79,6 +79,7 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
                      Traits(CGAL::make_property_map(pts)));
 
   std::vector<std::int64_t> ids(n);
+  cell_epoch = ++epoch_;
   for (std::size_t k : order) {
     Vertex_handle v = dt_.insert(pts[k], hint_);
     if (v->info().id == -2) {
@@ -95,13 +96,12 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
 const std::array<double, 3>& RestrictedDelaunay::circumcentre(
     Cell_handle c) const {
   CellInfo& info = c->info();
-  if (!info.has_cc) {
+  if (std::isnan(info.cc[0])) {
     // Filtered: doubles when certified, exact construction otherwise.
     static const CGAL::Robust_circumcenter_filtered_traits_3<K> traits;
     static const auto cc = traits.construct_circumcenter_3_object();
     info.cc = to_vec(cc(c->vertex(0)->point(), c->vertex(1)->point(),
                         c->vertex(2)->point(), c->vertex(3)->point()));
-    info.has_cc = true;
   }
   return info.cc;
 }
@@ -127,34 +127,45 @@ bool RestrictedDelaunay::clip(Vec3& a, Vec3& b) const {
   return true;
 }
 
-bool RestrictedDelaunay::gather_next_vertex() {
-  while (vertex_cursor_ < round_vertices_.size()) {
-    Vertex_handle v = round_vertices_[vertex_cursor_++];
-    around_.clear();
-    dt_.incident_cells(v, std::back_inserter(around_));
-    const std::size_t before = fresh_.size();
-    for (Cell_handle c : around_) {
-      CellInfo& info = c->info();
-      if (info.stamp == round_) continue;
-      info.stamp = round_;
-      info.order = static_cast<std::int32_t>(fresh_.size());
-      // Facets shared with a cell gathered earlier are that cell's to report
-      // (and may be being updated right now); the others are this cell's.
-      for (int i = 0; i < 4; ++i)
-        if (c->neighbor(i)->info().stamp != round_) {
-          info.flags[i] = 0;
-          info.centre[i] = -1;
-        }
-      fresh_.push_back(c);
+void RestrictedDelaunay::mark_fresh(Cell_handle c) {
+  CellInfo& info = c->info();
+  info.stamp = round_;
+  info.order = static_cast<std::int32_t>(fresh_.size());
+  // Facets shared with a cell gathered earlier are that cell's to report
+  // (and may be being updated right now); the others are this cell's.
+  for (int i = 0; i < 4; ++i)
+    if (c->neighbor(i)->info().stamp != round_) {
+      info.flags[i] = 0;
+      info.centre[i] = -1;
     }
-    if (fresh_.size() > before) return true;
+  fresh_.push_back(c);
+}
+
+bool RestrictedDelaunay::gather_more() {
+  if (gathered_all_) return false;
+  const std::size_t before = fresh_.size();
+  if (scan_) {
+    const auto end = dt_.finite_cells_end();
+    for (; scan_it_ != end && fresh_.size() - before < 256; ++scan_it_) {
+      Cell_handle c = scan_it_;
+      if (c->info().born >= round_from_) mark_fresh(c);
+    }
+    gathered_all_ = scan_it_ == end;
+  } else {
+    while (vertex_cursor_ < round_vertices_.size() && fresh_.size() == before) {
+      around_.clear();
+      dt_.incident_cells(round_vertices_[vertex_cursor_++],
+                         std::back_inserter(around_));
+      for (Cell_handle c : around_)
+        if (c->info().stamp != round_) mark_fresh(c);
+    }
+    gathered_all_ = vertex_cursor_ == round_vertices_.size();
   }
-  return false;
+  return fresh_.size() > before;
 }
 
 bool RestrictedDelaunay::round_unfinished() const {
-  return !pending_.empty() || cursor_ < fresh_.size() ||
-         vertex_cursor_ < round_vertices_.size();
+  return !pending_.empty() || cursor_ < fresh_.size() || !gathered_all_;
 }
 
 void RestrictedDelaunay::compact_centres() {
@@ -197,6 +208,12 @@ ChangedFacets RestrictedDelaunay::changed_facets(
     vertex_cursor_ = 0;
     round_vertices_.swap(last_new_);
     last_new_.clear();
+    round_from_ = report_from_;
+    report_from_ = epoch_ + 1;
+    // A vertex star has about 25 cells; scan when that adds up to many.
+    scan_ = 32 * round_vertices_.size() > dt_.number_of_cells();
+    if (scan_) scan_it_ = dt_.finite_cells_begin();
+    gathered_all_ = false;
   }
   ++call_;
   if (max_facets == 0) max_facets = static_cast<std::size_t>(-1);
@@ -227,7 +244,7 @@ ChangedFacets RestrictedDelaunay::changed_facets(
     return static_cast<std::int64_t>(out.ends.size() / 3 - 1);
   };
   while (chunk.facets.size() < max_facets) {
-    if (cursor_ == fresh_.size() && !gather_next_vertex()) break;
+    if (cursor_ == fresh_.size() && !gather_more()) break;
     Cell_handle c = fresh_[cursor_++];
     circumcentre(c);
     for (int i = 0; i < 4; ++i) {
@@ -315,14 +332,17 @@ void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
 
 void RestrictedDelaunay::restart_round() {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (round_unfinished())
+  if (round_unfinished()) {
     last_new_.insert(last_new_.begin(), round_vertices_.begin(),
                      round_vertices_.end());
+    report_from_ = round_from_;
+  }
   pending_.clear();
   fresh_.clear();
   cursor_ = 0;
   round_vertices_.clear();
   vertex_cursor_ = 0;
+  gathered_all_ = true;
 }
 
 FacetList RestrictedDelaunay::facets_with(std::uint8_t mask) const {

@@ -9,6 +9,7 @@
 
 #include <array>
 #include <deque>
+#include <limits>
 #include <mutex>
 #include <cstdint>
 #include <vector>
@@ -39,6 +40,10 @@ enum FacetFlag : std::uint8_t {
   LABELS = RESTRICTED | BAD | TOPO,
 };
 
+// Cells record the insertion (epoch) that created them, read from this
+// variable, which RestrictedDelaunay::insert sets in its thread.
+inline thread_local std::int32_t cell_epoch = 0;
+
 struct VertexInfo {
   std::int64_t id = -2;  // -1 for dummies, >= 0 for samples
 };
@@ -46,7 +51,8 @@ struct VertexInfo {
 // Kept small (64 bytes): cell size is a large part of insertion time and of
 // the memory of a run.
 struct CellInfo {
-  std::array<double, 3> cc{};  // cached circumcentre
+  // Cached circumcentre; NaN until computed.
+  std::array<double, 3> cc{std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0};
   // Surface centre per facet, as an index into RestrictedDelaunay::centres_
   // (both sides of a facet share it; -1: none).
   std::array<std::int32_t, 4> centre{-1, -1, -1, -1};
@@ -55,7 +61,7 @@ struct CellInfo {
   std::int32_t order = -1;  // position in that round's list of new cells
   std::int32_t end_idx = -1;    // index into ChangedFacets::ends ...
   std::int32_t end_stamp = -1;  // ... valid for one changed_facets call
-  bool has_cc = false;
+  std::int32_t born = cell_epoch;
 };
 
 using Vb = CGAL::Triangulation_vertex_base_with_info_3<VertexInfo, K>;
@@ -138,7 +144,8 @@ class RestrictedDelaunay {
   const std::array<double, 3>& circumcentre(Cell_handle c) const;
   bool is_dummy(Vertex_handle v) const;
   bool clip(std::array<double, 3>& a, std::array<double, 3>& b) const;
-  bool gather_next_vertex();
+  bool gather_more();
+  void mark_fresh(Cell_handle c);
   bool round_unfinished() const;
   void compact_centres();
 
@@ -157,11 +164,19 @@ class RestrictedDelaunay {
   std::deque<Chunk> pending_;
   mutable std::mutex mutex_;
   std::vector<Vertex_handle> round_vertices_;  // inserted before this round
-  // Cells new in this round, gathered lazily around round_vertices_ (so the
-  // first chunk of a round comes quickly).
+  // Cells new in this round, gathered lazily (so the first chunk of a round
+  // comes quickly): around round_vertices_ when they are few, otherwise by
+  // a scan of all cells for those born since epoch round_from_ (faster than
+  // visiting many vertex stars).
   std::vector<Cell_handle> fresh_;
   std::size_t cursor_ = 0;          // next cell of fresh_ to report
   std::size_t vertex_cursor_ = 0;   // next vertex whose cells to gather
+  bool scan_ = false;
+  bool gathered_all_ = true;
+  Delaunay::Finite_cells_iterator scan_it_;
+  std::int32_t epoch_ = 0;        // insertions so far
+  std::int32_t report_from_ = 1;  // first epoch not handed out yet
+  std::int32_t round_from_ = 1;   // ... as of this round's start
   // Surface centres of restricted facets (xyz); cells index into it.  Grows
   // by update_facets, compacted at the start of a round when mostly dead.
   std::vector<double> centres_;

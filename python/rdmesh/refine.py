@@ -265,12 +265,14 @@ class Refiner:
     def _update(self, st: _State) -> None:
         """Evaluate the facets whose dual changed and hand the flags to C++.
 
-        The core hands out the changed facets in chunks (bounded memory).
-        While Python evaluates one chunk, the core computes the next in a
-        background thread with the GIL released, so both cores work. ``f`` is
-        evaluated once for all Voronoi vertices of a chunk, then once for all
-        samples of each slice.
+        The core hands out the changed facets in chunks (bounded memory), with
+        their dual segments sampled. While Python evaluates one chunk, a
+        background thread (GIL released) hands the flags of the previous chunk
+        to the core and computes the next chunk, so both cores work; the
+        thread runs its jobs in order, as the core requires. ``f`` is evaluated
+        once for all Voronoi vertices of a chunk, then once for all samples.
         """
+        updates = []
         with ThreadPoolExecutor(1) as core:
             # A small first chunk: Python waits for it with nothing to overlap.
             job = core.submit(st.rdt.changed_facets, FIRST_CHUNK, **SAMPLING)
@@ -278,16 +280,18 @@ class Refiner:
                 with _timed(st, "changed_facets"):
                     tri, seg, end_index, ends, rho, samples = job.result()
                 if len(tri) == 0:
-                    return
+                    break
                 job = core.submit(st.rdt.changed_facets, CORE_CHUNK, **SAMPLING)
                 with _timed(st, "evaluate"):
                     end_f = self.surface(ends)[end_index]
                     flags, centres = self._evaluate(
                         st, tri, seg, end_f, rho, DualSamples(*samples)
                     )
-                with _timed(st, "update_facets"):
-                    st.rdt.update_facets(flags, centres)
+                updates.append(core.submit(st.rdt.update_facets, flags, centres))
                 st.changed += len(tri)
+        with _timed(st, "update_facets"):
+            for u in updates:
+                u.result()  # re-raises a failure
 
     def _evaluate(self, st, tri, seg, end_f, rho, samples):
         """Flags (restricted, bad, topology, outward) and surface centres."""
