@@ -213,6 +213,7 @@ class RestrictedDelaunay {
   std::vector<Cell_handle> around_;  // scratch
   std::int32_t round_ = 0;
   std::int32_t call_ = 0;
+  mutable std::int32_t voronoi_call_ = 0;  // voronoi_facets calls (cell numbering)
   Vertex_handle hint_;
 };
 

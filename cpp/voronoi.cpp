@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <stdexcept>
 #include <string>
-#include <unordered_map>
 
 #include "rdt.hpp"
 
@@ -31,23 +30,58 @@ VoronoiFacets RestrictedDelaunay::voronoi_facets(const std::int64_t* edges,
                                   " joins vertex " +
                                   std::to_string(edges[2 * k]) + " to itself");
   }
+  // Locate every edge through one visit of its first vertex's star: edges
+  // sharing that vertex share the visit (is_edge would visit it per edge).
+  struct Where {
+    Cell_handle c;
+    int i = -1, j = -1;
+  };
+  std::vector<Where> where(m);
+  std::vector<std::size_t> order(m);
+  for (std::size_t k = 0; k < m; ++k) order[k] = k;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return edges[2 * a] < edges[2 * b];
+  });
+  std::vector<Cell_handle> star;
+  for (std::size_t g = 0; g < m;) {
+    std::size_t h = g;
+    while (h < m && edges[2 * order[h]] == edges[2 * order[g]]) ++h;
+    Vertex_handle vp = samples_[edges[2 * order[g]]];
+    star.clear();
+    dt_.incident_cells(vp, std::back_inserter(star));
+    for (Cell_handle c : star) {
+      const int ip = c->index(vp);
+      for (int d = 0; d < 4; ++d) {
+        if (d == ip) continue;
+        Vertex_handle v = c->vertex(d);
+        if (is_dummy(v)) continue;
+        const std::int64_t id = v->info().id;
+        for (std::size_t t = g; t < h; ++t) {
+          Where& w = where[order[t]];
+          if (w.i < 0 && edges[2 * order[t] + 1] == id) w = {c, ip, d};
+        }
+      }
+    }
+    g = h;
+  }
   VoronoiFacets out;
   out.offsets.reserve(m + 1);
   out.offsets.push_back(0);
   out.points.reserve(3 * 6 * m);
   out.cell.reserve(6 * m);
   out.third.reserve(6 * m);
-  std::unordered_map<const void*, std::int64_t> number;
-  number.reserve(4 * m + 16);
+  // Distinct cells are numbered through their end_idx/end_stamp fields with
+  // a negative stamp, which changed_facets (positive stamps) never matches.
+  const std::int32_t stamp = -(++voronoi_call_);
+  std::int64_t n_cells = 0;
   for (std::size_t k = 0; k < m; ++k) {
-    Vertex_handle vp = samples_[edges[2 * k]], vq = samples_[edges[2 * k + 1]];
-    Cell_handle c;
-    int i, j;
-    if (!dt_.is_edge(vp, vq, c, i, j))
+    const Where& at = where[k];
+    if (at.i < 0)
       throw std::invalid_argument(
           "edge " + std::to_string(k) + " (" + std::to_string(edges[2 * k]) +
           ", " + std::to_string(edges[2 * k + 1]) + ") is not a Delaunay edge");
-    auto start = dt_.incident_cells(c, i, j);
+    Vertex_handle vp = samples_[edges[2 * k]], vq = samples_[edges[2 * k + 1]];
+    auto start = dt_.incident_cells(at.c, at.i, at.j);
     auto cur = start;
     do {
       Cell_handle a = cur;
@@ -60,8 +94,12 @@ VoronoiFacets RestrictedDelaunay::voronoi_facets(const std::int64_t* edges,
                                  "infinite incident cell");
       const auto& cc = circumcentre(a);
       out.points.insert(out.points.end(), cc.begin(), cc.end());
-      auto it = number.emplace(&*a, static_cast<std::int64_t>(number.size()));
-      out.cell.push_back(it.first->second);
+      CellInfo& info = a->info();
+      if (info.end_stamp != stamp) {
+        info.end_stamp = stamp;
+        info.end_idx = static_cast<std::int32_t>(n_cells++);
+      }
+      out.cell.push_back(info.end_idx);
       // a and b share the facet (p, q, w): w is a's vertex that is neither
       // p, q nor the one opposite b.
       const int opp = a->index(b);

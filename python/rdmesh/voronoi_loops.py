@@ -31,13 +31,13 @@ import numpy as np
 from .complex import ComplexStatus
 
 #: Newton iterations per seed (seeds leave early when they converge or stray).
-ITERATIONS = 8
+ITERATIONS = 4
 #: Cosine of the largest angle between the arc and its chord at both ends for
 #: which a facet gets only the chord seed (the arc enters and leaves along
 #: the chord); others also get the centroid seed.
 MONOTONE_COS = 0.5
 #: A seed whose full Newton step exceeds this many polygon diameters is dropped.
-STRAY = 1.0
+STRAY = 0.5
 
 
 @dataclass
@@ -75,7 +75,9 @@ class LoopViolations:
     radii: np.ndarray  # (c,)
 
 
-def loop_test(surface, rdt, vertices, tri, centres, status: ComplexStatus, memo=None):
+def loop_test(
+    surface, rdt, vertices, tri, centres, status: ComplexStatus, probes=None, tree=None, memo=None
+):
     """Voronoi facets of the sample set meeting the surface in a loop or folded arc.
 
     Parameters
@@ -85,6 +87,10 @@ def loop_test(surface, rdt, vertices, tri, centres, status: ComplexStatus, memo=
     vertices : (n, 3) samples.
     tri : (F, 3) restricted facets; centres : (F, 3) their surface centres.
     status : :func:`rdmesh.complex.complex_status` of ``tri``.
+    probes : :class:`rdmesh.topology.Probes` or None; facets without boundary
+        crossings are tested where a probe lies within the probe spacing of
+        them (between its two nearest samples), none without probes.
+    tree : cKDTree of ``vertices`` or None.
     memo : :class:`LoopMemo` or None; facets unchanged since found clean are skipped.
 
     Returns
@@ -97,38 +103,107 @@ def loop_test(surface, rdt, vertices, tri, centres, status: ComplexStatus, memo=
     """
     t0 = time.perf_counter()
     memo = memo if memo is not None else LoopMemo()
-    n = len(vertices)
-    edges = rdt.delaunay_edges()
+    n = max(len(vertices), 1)
+    lo, hi = status.edge_key // n, status.edge_key % n
+    two = status.edge_count == 2
+    edges = np.column_stack([lo[two], hi[two]])
+    pos = np.flatnonzero(two)
+    seeds0 = np.zeros((0, 3))
+    if probes is not None and len(probes.points) and len(vertices) >= 2:
+        e0, seeds0 = _probe_edges(vertices, probes, tree)
+        # Not complex edges (those have crossings), and Delaunay edges.
+        k0 = e0[:, 0] * n + e0[:, 1]
+        keep = ~np.isin(k0, status.edge_key)
+        e0, seeds0 = e0[keep], seeds0[keep]
+        if len(e0):
+            de = rdt.delaunay_edges(np.unique(e0[:, 0]))
+            keep = np.isin(e0[:, 0] * n + e0[:, 1], de[:, 0] * n + de[:, 1])
+            e0, seeds0 = e0[keep], seeds0[keep]
+        edges = np.concatenate([edges, e0])
+        pos = np.concatenate([pos, np.full(len(e0), -1)])
+    seeds = np.full((len(edges), 3), np.nan)
+    seeds[len(edges) - len(seeds0) :] = seeds0
+    # Facets of complex edges whose arc evidently runs along its chord need
+    # no polygon and no Newton (see _screen).
+    plain = np.zeros(len(edges), bool)
+    plain[pos >= 0] = _screen(
+        surface, vertices, tri, centres, status, edges[pos >= 0], pos[pos >= 0]
+    )
+    edges, pos, seeds = edges[~plain], pos[~plain], seeds[~plain]
     keys = (edges[:, 0] << 32) | edges[:, 1]
-    # Complex edges: 2 crossings (their restricted facets' centres); other
-    # non-zero counts are the crossing-count test's.
-    ekey = status.edge_key
-    elo, ehi = ekey // max(n, 1), ekey % max(n, 1)
-    ckeys = (elo << 32) | ehi
-    pos = np.searchsorted(ckeys, keys) if len(ckeys) else np.zeros(len(keys), np.int64)
-    pos = np.minimum(pos, max(len(ckeys) - 1, 0))
-    in_complex = (ckeys[pos] == keys) if len(ckeys) else np.zeros(len(keys), bool)
-    count = np.where(in_complex, status.edge_count[pos] if len(ckeys) else 0, 0)
-    keep = (count == 0) | (count == 2)
-    edges, keys, pos, count = edges[keep], keys[keep], pos[keep], count[keep]
-    off, pts, cell, _ = rdt.voronoi_facets(edges)
+    off, pts, _, _ = rdt.voronoi_facets(edges)
     sizes = np.diff(off)
     # Fingerprint: the polygon's vertices seen along a fixed direction.
     w = pts @ np.array([0.5772156649, 0.2718281828, 0.3141592653]) + 1.4142135623 * pts[:, 0] ** 2
-    prints = np.add.reduceat(w, off[:-1]) if len(pts) else np.zeros(0)
-    prints = prints + sizes
+    prints = (np.add.reduceat(w, off[:-1]) if len(pts) else np.zeros(0)) + sizes
     fresh = ~memo.known(keys, prints)
-    out = _test(surface, vertices, tri, centres, status, edges, count, pos, off, pts, cell, fresh)
-    bad_rows = np.zeros(len(edges), bool)
-    bad_rows[out[0]] = True
-    clean = fresh & ~bad_rows
+    bad, x, r = _test(surface, vertices, tri, centres, status, edges, pos, off, pts, fresh, seeds)
+    clean = fresh.copy()
+    clean[bad] = False
     memo.remember(keys[clean], prints[clean])
     memo.tested += int(fresh.sum())
     memo.seconds += time.perf_counter() - t0
-    return LoopViolations(edges[out[0]], out[1], out[2])
+    return LoopViolations(edges[bad], x, r)
 
 
-def _test(surface, vertices, tri, centres, status, edges, count, pos, off, pts, cell, fresh):
+def _crossings(surface, tri, centres, status, pos):
+    """The two crossings of each complex edge ``pos`` (its restricted facets'
+    centres) and the gradients there."""
+    fe = status.facet_edges.ravel()
+    f_of = np.repeat(np.arange(len(tri)), 3)
+    order = np.argsort(fe, kind="stable")
+    first = np.searchsorted(fe[order], pos)
+    fa, fb = f_of[order[first]], f_of[order[first + 1]]
+    used, inv = np.unique(np.concatenate([fa, fb]), return_inverse=True)
+    g = surface.grad(centres[used])[inv].reshape(2, -1, 3)
+    return centres[fa], centres[fb], g[0], g[1]
+
+
+def _screen(surface, vertices, tri, centres, status, edges, pos):
+    """Complex edges whose facet arc evidently runs along its chord ``ab``.
+
+    True where the arc leaves both crossings within 60 degrees of the chord,
+    in the same direction along it, and ``<grad f, e2>`` interpolated linearly
+    from ``a`` to ``b`` vanishes (a predicted turn) no nearer than one chord
+    length to the chord's midpoint. Such facets get no Newton seeds.
+    """
+    if len(pos) == 0:
+        return np.zeros(0, bool)
+    a, b, ga, gb = _crossings(surface, tri, centres, status, pos)
+    nrm = vertices[edges[:, 1]] - vertices[edges[:, 0]]
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    e1 = b - a
+    e1 -= np.einsum("ij,ij->i", e1, nrm)[:, None] * nrm
+    length = np.linalg.norm(e1, axis=1)
+    e2 = np.cross(nrm, e1 / np.maximum(length, 1e-300)[:, None])
+    sa, sb = np.einsum("ij,ij->i", ga, e2), np.einsum("ij,ij->i", gb, e2)
+    ca = np.abs(sa) / np.maximum(np.linalg.norm(ga, axis=1), 1e-300)
+    cb = np.abs(sb) / np.maximum(np.linalg.norm(gb, axis=1), 1e-300)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = sa / (sa - sb)
+    far = ~(np.abs(t - 0.5) <= 1.0)  # NaN (no turn) counts as far
+    return (sa * sb > 0) & (np.minimum(ca, cb) >= MONOTONE_COS) & far & (length > 0)
+
+
+def _probe_edges(vertices, probes, tree):
+    """Edges ``pq`` (sorted) whose bisector plane passes within the probe spacing
+    of a probe whose two nearest samples are ``p`` and ``q``; the probe nearest
+    each such plane as a seed."""
+    from scipy.spatial import cKDTree
+
+    tree = tree or cKDTree(vertices)
+    d, idx = tree.query(probes.points, k=2)
+    p, q = vertices[idx[:, 0]], vertices[idx[:, 1]]
+    gap = (d[:, 1] ** 2 - d[:, 0] ** 2) / (2 * np.maximum(np.linalg.norm(q - p, axis=1), 1e-300))
+    near = np.flatnonzero(gap < probes.spacing)
+    e = np.sort(idx[near], axis=1).astype(np.int64)
+    order = np.lexsort((gap[near], e[:, 1], e[:, 0]))
+    e = e[order]
+    first = np.r_[True, np.any(e[1:] != e[:-1], axis=1)]
+    return e[first], probes.points[near[order][first]]
+
+
+def _test(surface, vertices, tri, centres, status, edges, pos, off, pts, fresh, seeds):
     """Rows of ``edges`` that fail, with one refinement point each."""
     none = (np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
     rows = np.flatnonzero(fresh)
@@ -147,40 +222,16 @@ def _test(surface, vertices, tri, centres, status, edges, count, pos, off, pts, 
     radius = np.zeros(len(rows))
     np.maximum.at(radius, owner, np.linalg.norm(poly - centroid[owner], axis=1))
     diam = 2.0 * radius
-    k2 = count[rows] == 2
+    k2 = pos[rows] >= 0
     # Crossings of k = 2 facets: the centres of their two restricted facets.
     a = np.zeros((len(rows), 3))
     b = np.zeros((len(rows), 3))
+    ga = np.zeros((len(rows), 3))
+    gb = np.zeros((len(rows), 3))
     if k2.any():
-        fe = status.facet_edges.ravel()
-        f_of = np.repeat(np.arange(len(tri)), 3)
-        order = np.argsort(fe, kind="stable")
-        first = np.searchsorted(fe[order], pos[rows[k2]])
-        a[k2] = centres[f_of[order[first]]]
-        b[k2] = centres[f_of[order[first + 1]]]
-    # k = 0 facets: only those near the surface to first order.
-    k0 = ~k2
-    near = np.zeros(len(rows), bool)
-    near[k2] = True
-    best = np.zeros(len(rows), np.int64)  # polygon vertex nearest the surface
-    if k0.any():
-        sel = k0[owner]
-        ucell, inv = np.unique(cell[idx[sel]], return_inverse=True)
-        first_pt = np.zeros(len(ucell), np.int64)
-        first_pt[inv] = np.flatnonzero(sel)
-        up = poly[first_pt]
-        fv = surface(up)[inv]
-        gv = surface.grad(up)[inv]
-        o = owner[sel]
-        g_in = gv - np.einsum("ij,ij->i", gv, nrm[o])[:, None] * nrm[o]
-        dist = np.abs(fv) / np.maximum(np.linalg.norm(g_in, axis=1), 1e-300)
-        near |= np.bincount(o, weights=dist < diam[o], minlength=len(rows)) > 0
-        # The nearest vertex of each polygon (last in lexsort order).
-        ordv = np.lexsort((-dist, o))
-        last = np.r_[o[ordv][1:] != o[ordv][:-1], True]
-        best[o[ordv][last]] = np.flatnonzero(sel)[ordv][last]
-    # Plane frames.
-    e1 = np.where(k2[:, None], b - a, 0.0)
+        a[k2], b[k2], ga[k2], gb[k2] = _crossings(surface, tri, centres, status, pos[rows[k2]])
+    # Plane frames: e1 along the chord (k = 2), else any in-plane direction.
+    e1 = b - a
     e1 -= np.einsum("ij,ij->i", e1, nrm)[:, None] * nrm
     l1 = np.linalg.norm(e1, axis=1)
     helper = np.where(np.abs(nrm[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
@@ -188,36 +239,30 @@ def _test(surface, vertices, tri, centres, status, edges, count, pos, off, pts, 
     e1 = np.where((l1 > 1e-12 * diam)[:, None], e1, alt)
     e1 /= np.linalg.norm(e1, axis=1)[:, None]
     e2 = np.cross(nrm, e1)
-    # Folded arcs seen at the ends: the arc's direction along the chord has
-    # opposite signs at a and b (so <grad f, e2> vanishes on the arc).
-    fold = np.zeros(len(rows), bool)
-    if k2.any():
-        g = surface.grad(np.concatenate([a[k2], b[k2]])).reshape(2, -1, 3)
-        e2k = e2[k2]
-        ga, gb = np.einsum("nj,nj->n", g[0], e2k), np.einsum("nj,nj->n", g[1], e2k)
-        fold[k2] = ga * gb < 0
-        ta = np.abs(ga) / np.maximum(np.linalg.norm(g[0], axis=1), 1e-300)
-        tb = np.abs(gb) / np.maximum(np.linalg.norm(g[1], axis=1), 1e-300)
-        # |<grad, e2>| / |grad| is the cosine between the arc and the chord
-        # (for a facet plane close to the surface normal).
-        straight = np.zeros(len(rows), bool)
-        straight[k2] = np.minimum(ta, tb) >= MONOTONE_COS
-    else:
-        straight = np.zeros(len(rows), bool)
-    # Seeds: chord midpoint (k = 2), centroid (k = 2 unless straight, and
-    # k = 0 near), nearest vertex (k = 0 near).
-    s_rows, s_pts = [], []
-    m2 = np.flatnonzero(k2 & ~fold)
-    s_rows.append(m2)
-    s_pts.append(0.5 * (a[m2] + b[m2]))
-    mc = np.flatnonzero((k2 & ~fold & ~straight) | (k0 & near))
-    s_rows.append(mc)
-    s_pts.append(centroid[mc])
-    mv = np.flatnonzero(k0 & near)
-    s_rows.append(mv)
-    s_pts.append(poly[best[mv]])
-    srow = np.concatenate(s_rows)
-    x = np.concatenate(s_pts)
+    # The arc's direction along the chord is sign(<grad f, e2>) (the tangent
+    # is n x grad f): opposite signs at a and b mean the arc turns back.
+    sa, sb = np.einsum("ij,ij->i", ga, e2), np.einsum("ij,ij->i", gb, e2)
+    fold = k2 & (sa * sb < 0)
+    ca = np.abs(sa) / np.maximum(np.linalg.norm(ga, axis=1), 1e-300)
+    cb = np.abs(sb) / np.maximum(np.linalg.norm(gb, axis=1), 1e-300)
+    straight = k2 & (np.minimum(ca, cb) >= MONOTONE_COS)
+    # Chord seed: where <grad f, e2>, interpolated linearly from a to b,
+    # vanishes (the turn the ends predict), if that lies within the polygon.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = sa / (sa - sb)
+    turn = a + t[:, None] * (b - a)
+    chord = k2 & ~fold & np.isfinite(t)
+    chord &= np.linalg.norm(turn - centroid, axis=1) <= radius
+    # Seeds: the chord turn, the centroid (k = 2 facets whose arc leaves an
+    # end at more than 60 degrees from the chord, and k = 0), and the probe.
+    mc = np.flatnonzero(chord)
+    mm = np.flatnonzero((k2 & ~fold & ~straight) | ~k2)
+    mp = np.flatnonzero(~k2 & np.isfinite(seeds[rows, 0]))
+    srow = np.concatenate([mc, mm, mp])
+    x = np.concatenate([turn[mc], centroid[mm], seeds[rows[mp]]])
+    # Into the facet planes (the bisectors of p and q).
+    mid = 0.5 * (p + q)[srow]
+    x -= np.einsum("ij,ij->i", x - mid, nrm[srow])[:, None] * nrm[srow]
     sol_row, sol_x = _newton(surface, x, srow, nrm, e1, e2, centroid, diam)
     inside = _in_polygon(sol_x, sol_row, sub_off, poly, nrm, diam)
     sol_row, sol_x = sol_row[inside], sol_x[inside]
@@ -254,8 +299,9 @@ def _newton(surface, x, row, nrm, e1, e2, centroid, diam):
         g = g3[0]
         g1 = np.einsum("ij,ij->i", g, u)
         g2 = np.einsum("ij,ij->i", g, v)
-        gn = np.maximum(np.linalg.norm(g - np.einsum("ij,ij->i", g, n_)[:, None] * n_, axis=1),
-                        1e-300)
+        gn = np.maximum(
+            np.linalg.norm(g - np.einsum("ij,ij->i", g, n_)[:, None] * n_, axis=1), 1e-300
+        )
         ok = (np.abs(f) <= 1e-9 * diam[row] * gn) & (np.abs(g2) <= 1e-7 * gn)
         if ok.any():
             done_r.append(row[ok])
@@ -278,11 +324,7 @@ def _newton(surface, x, row, nrm, e1, e2, centroid, diam):
         step *= np.minimum(1.0, cap / np.maximum(length, 1e-300))[:, None]
         x = x + step
         # Stray seeds leave: far outside their polygon, or no step.
-        stay = (
-            ~ok
-            & solvable
-            & (np.linalg.norm(x - centroid[row], axis=1) <= 0.75 * diam[row])
-        )
+        stay = ~ok & solvable & (np.linalg.norm(x - centroid[row], axis=1) <= 0.5 * diam[row])
         x, row = x[stay], row[stay]
     if not done_r:
         return np.zeros(0, np.int64), np.zeros((0, 3))
