@@ -72,7 +72,7 @@ VoronoiFacets RestrictedDelaunay::voronoi_facets(const std::int64_t* edges,
   out.third.reserve(6 * m);
   // Distinct cells are numbered through their end_idx/end_stamp fields with
   // a negative stamp, which changed_facets (positive stamps) never matches.
-  const std::int32_t stamp = -(++voronoi_call_);
+  const std::int32_t stamp = -(++voronoi_call_) - 1;  // -1 is the initial value
   std::int64_t n_cells = 0;
   for (std::size_t k = 0; k < m; ++k) {
     const Where& at = where[k];

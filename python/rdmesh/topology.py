@@ -86,13 +86,16 @@ _BASIS = {
         "sampled",
         "no Voronoi facet meets the surface in a closed loop or in an arc that turns back "
         "along its chord: damped Newton on {f = 0, <grad f, e2> = 0} in the facet plane "
-        "from at most 3 seeds per facet (a loop or fold missed by every seed is not seen). "
-        "Facets of complex edges: a fold is also seen when the arc runs backwards at one "
-        "crossing; seeds are the turn the gradients at the two crossings predict "
-        "(only when it falls inside the polygon) and, when the arc leaves a crossing at "
-        "more than 60 degrees from the chord, the centroid. Facets without crossings are "
-        "tested only where a probe lies within the probe spacing of them (seeds: the "
-        "probe and the centroid); without probes they are not tested",
+        "from a few seeds per facet (a loop or fold missed by every seed is not seen). "
+        "Facets of complex edges (2 crossings a, b): a fold is also seen when the arc runs "
+        "backwards along the chord at one crossing; a facet whose arc leaves both crossings "
+        "within 60 degrees of the chord, in the same direction, with no turn predicted "
+        "within one chord length of the chord's midpoint by the gradients at a and b "
+        "(linearly interpolated), gets no seed; otherwise the seeds are that predicted turn "
+        "(when inside the polygon) and, when the arc leaves a crossing at more than 60 "
+        "degrees from the chord, the chord's quarter points and the polygon's centroid. "
+        "Facets without crossings are tested only where a probe lies within the probe "
+        "spacing of them (seeds: that probe and the centroid); without probes, not at all",
     ),
     "disk": (
         "exact",

@@ -31,7 +31,7 @@ import numpy as np
 from .complex import ComplexStatus
 
 #: Newton iterations per seed (seeds leave early when they converge or stray).
-ITERATIONS = 4
+ITERATIONS = 8
 #: Cosine of the largest angle between the arc and its chord at both ends for
 #: which a facet gets only the chord seed (the arc enters and leaves along
 #: the chord); others also get the centroid seed.
@@ -62,8 +62,10 @@ class LoopMemo:
     def remember(self, keys: np.ndarray, prints: np.ndarray) -> None:
         k = np.concatenate([keys, self.keys])
         p = np.concatenate([prints, self.prints])
-        k, first = np.unique(k, return_index=True)  # new entries win
-        self.keys, self.prints = k, p[first]
+        o = np.argsort(k, kind="stable")  # new entries first, and they win
+        k, p = k[o], p[o]
+        first = np.r_[True, k[1:] != k[:-1]]
+        self.keys, self.prints = k[first], p[first]
 
 
 @dataclass
@@ -104,62 +106,88 @@ def loop_test(
     t0 = time.perf_counter()
     memo = memo if memo is not None else LoopMemo()
     n = max(len(vertices), 1)
-    lo, hi = status.edge_key // n, status.edge_key % n
-    two = status.edge_count == 2
-    edges = np.column_stack([lo[two], hi[two]])
-    pos = np.flatnonzero(two)
-    seeds0 = np.zeros((0, 3))
+    # Complex edges with 2 crossings: their restricted facets' centres. Other
+    # non-zero counts are the crossing-count test's.
+    pos = np.flatnonzero(status.edge_count == 2)
+    e2 = np.column_stack([status.edge_key[pos] // n, status.edge_key[pos] % n])
+    fa, fb = _crossing_facets(status, len(tri))
+    fa, fb = fa[pos], fb[pos]
+    a, b = centres[fa], centres[fb]
+    keys2 = (e2[:, 0] << 32) | e2[:, 1]
+    prints2 = a @ _W + b @ (2 * _W) + 1.0
+    fresh2 = ~memo.known(keys2, prints2)
+    e2, fa, fb, a, b = e2[fresh2], fa[fresh2], fb[fresh2], a[fresh2], b[fresh2]
+    keys2, prints2 = keys2[fresh2], prints2[fresh2]
+    need = np.zeros(len(tri), bool)
+    need[fa] = need[fb] = True
+    slot = np.cumsum(need) - 1
+    g = surface.grad(centres[need])
+    ga, gb = g[slot[fa]], g[slot[fb]]
+    # Facets whose arc evidently runs along its chord need no polygon and no
+    # Newton (see _screen).
+    plain = _screen(vertices, e2, a, b, ga, gb)
+    memo.remember(keys2[plain], prints2[plain])
+    rest = ~plain
+    e2, a, b, ga, gb = e2[rest], a[rest], b[rest], ga[rest], gb[rest]
+    keys2, prints2 = keys2[rest], prints2[rest]
+    e0, seeds0 = np.zeros((0, 2), np.int64), np.zeros((0, 3))
     if probes is not None and len(probes.points) and len(vertices) >= 2:
         e0, seeds0 = _probe_edges(vertices, probes, tree)
         # Not complex edges (those have crossings), and Delaunay edges.
-        k0 = e0[:, 0] * n + e0[:, 1]
-        keep = ~np.isin(k0, status.edge_key)
+        keep = ~_sorted_has(status.edge_key, e0[:, 0] * n + e0[:, 1])
         e0, seeds0 = e0[keep], seeds0[keep]
         if len(e0):
             de = rdt.delaunay_edges(np.unique(e0[:, 0]))
-            keep = np.isin(e0[:, 0] * n + e0[:, 1], de[:, 0] * n + de[:, 1])
+            keep = _sorted_has(de[:, 0] * n + de[:, 1], e0[:, 0] * n + e0[:, 1])
             e0, seeds0 = e0[keep], seeds0[keep]
-        edges = np.concatenate([edges, e0])
-        pos = np.concatenate([pos, np.full(len(e0), -1)])
-    seeds = np.full((len(edges), 3), np.nan)
-    seeds[len(edges) - len(seeds0) :] = seeds0
-    # Facets of complex edges whose arc evidently runs along its chord need
-    # no polygon and no Newton (see _screen).
-    plain = np.zeros(len(edges), bool)
-    plain[pos >= 0] = _screen(
-        surface, vertices, tri, centres, status, edges[pos >= 0], pos[pos >= 0]
-    )
-    edges, pos, seeds = edges[~plain], pos[~plain], seeds[~plain]
+    edges = np.concatenate([e2, e0]).astype(np.int64)
+    m2 = len(e2)
+    k2 = np.arange(len(edges)) < m2
+    pad = np.zeros((len(e0), 3))
+    a, b = np.concatenate([a, pad]), np.concatenate([b, pad])
+    ga, gb = np.concatenate([ga, pad]), np.concatenate([gb, pad])
+    seeds = np.concatenate([np.full((m2, 3), np.nan), seeds0])
     keys = (edges[:, 0] << 32) | edges[:, 1]
     off, pts, _, _ = rdt.voronoi_facets(edges)
-    sizes = np.diff(off)
-    # Fingerprint: the polygon's vertices seen along a fixed direction.
-    w = pts @ np.array([0.5772156649, 0.2718281828, 0.3141592653]) + 1.4142135623 * pts[:, 0] ** 2
-    prints = (np.add.reduceat(w, off[:-1]) if len(pts) else np.zeros(0)) + sizes
-    fresh = ~memo.known(keys, prints)
-    bad, x, r = _test(surface, vertices, tri, centres, status, edges, pos, off, pts, fresh, seeds)
+    # Facets without crossings: fingerprint the polygon's vertices.
+    w = pts @ _W + 1.4142135623 * pts[:, 0] ** 2
+    prints = (np.add.reduceat(w, off[:-1]) if len(pts) else np.zeros(0)) + np.diff(off)
+    prints[:m2] = prints2
+    fresh = k2 | ~memo.known(keys, prints)
+    bad, x, r = _test(surface, vertices, edges, k2, a, b, ga, gb, off, pts, fresh, seeds)
     clean = fresh.copy()
     clean[bad] = False
     memo.remember(keys[clean], prints[clean])
-    memo.tested += int(fresh.sum())
+    memo.tested += int(plain.sum() + fresh.sum())
     memo.seconds += time.perf_counter() - t0
     return LoopViolations(edges[bad], x, r)
 
 
-def _crossings(surface, tri, centres, status, pos):
-    """The two crossings of each complex edge ``pos`` (its restricted facets'
-    centres) and the gradients there."""
+def _sorted_has(table: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """Whether each key occurs in the sorted array ``table``."""
+    if len(table) == 0:
+        return np.zeros(len(keys), bool)
+    i = np.minimum(np.searchsorted(table, keys), len(table) - 1)
+    return table[i] == keys
+
+
+#: A fixed direction for fingerprints.
+_W = np.array([0.5772156649, 0.2718281828, 0.3141592653])
+
+
+def _crossing_facets(status, n_facets):
+    """For each edge of the complex, its smallest and largest facet index
+    (the two restricted facets of an edge with 2)."""
     fe = status.facet_edges.ravel()
-    f_of = np.repeat(np.arange(len(tri)), 3)
-    order = np.argsort(fe, kind="stable")
-    first = np.searchsorted(fe[order], pos)
-    fa, fb = f_of[order[first]], f_of[order[first + 1]]
-    used, inv = np.unique(np.concatenate([fa, fb]), return_inverse=True)
-    g = surface.grad(centres[used])[inv].reshape(2, -1, 3)
-    return centres[fa], centres[fb], g[0], g[1]
+    f_of = np.repeat(np.arange(n_facets), 3)
+    first = np.full(len(status.edge_key), n_facets, np.int64)
+    last = np.full(len(status.edge_key), -1, np.int64)
+    np.minimum.at(first, fe, f_of)
+    np.maximum.at(last, fe, f_of)
+    return first, last
 
 
-def _screen(surface, vertices, tri, centres, status, edges, pos):
+def _screen(vertices, edges, a, b, ga, gb):
     """Complex edges whose facet arc evidently runs along its chord ``ab``.
 
     True where the arc leaves both crossings within 60 degrees of the chord,
@@ -167,9 +195,8 @@ def _screen(surface, vertices, tri, centres, status, edges, pos):
     from ``a`` to ``b`` vanishes (a predicted turn) no nearer than one chord
     length to the chord's midpoint. Such facets get no Newton seeds.
     """
-    if len(pos) == 0:
+    if len(edges) == 0:
         return np.zeros(0, bool)
-    a, b, ga, gb = _crossings(surface, tri, centres, status, pos)
     nrm = vertices[edges[:, 1]] - vertices[edges[:, 0]]
     nrm /= np.linalg.norm(nrm, axis=1)[:, None]
     e1 = b - a
@@ -196,6 +223,8 @@ def _probe_edges(vertices, probes, tree):
     p, q = vertices[idx[:, 0]], vertices[idx[:, 1]]
     gap = (d[:, 1] ** 2 - d[:, 0] ** 2) / (2 * np.maximum(np.linalg.norm(q - p, axis=1), 1e-300))
     near = np.flatnonzero(gap < probes.spacing)
+    if near.size == 0:
+        return np.zeros((0, 2), np.int64), np.zeros((0, 3))
     e = np.sort(idx[near], axis=1).astype(np.int64)
     order = np.lexsort((gap[near], e[:, 1], e[:, 0]))
     e = e[order]
@@ -203,7 +232,7 @@ def _probe_edges(vertices, probes, tree):
     return e[first], probes.points[near[order][first]]
 
 
-def _test(surface, vertices, tri, centres, status, edges, pos, off, pts, fresh, seeds):
+def _test(surface, vertices, edges, is2, a, b, ga, gb, off, pts, fresh, seeds):
     """Rows of ``edges`` that fail, with one refinement point each."""
     none = (np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0))
     rows = np.flatnonzero(fresh)
@@ -222,14 +251,8 @@ def _test(surface, vertices, tri, centres, status, edges, pos, off, pts, fresh, 
     radius = np.zeros(len(rows))
     np.maximum.at(radius, owner, np.linalg.norm(poly - centroid[owner], axis=1))
     diam = 2.0 * radius
-    k2 = pos[rows] >= 0
-    # Crossings of k = 2 facets: the centres of their two restricted facets.
-    a = np.zeros((len(rows), 3))
-    b = np.zeros((len(rows), 3))
-    ga = np.zeros((len(rows), 3))
-    gb = np.zeros((len(rows), 3))
-    if k2.any():
-        a[k2], b[k2], ga[k2], gb[k2] = _crossings(surface, tri, centres, status, pos[rows[k2]])
+    k2 = is2[rows]
+    a, b, ga, gb = a[rows], b[rows], ga[rows], gb[rows]
     # Plane frames: e1 along the chord (k = 2), else any in-plane direction.
     e1 = b - a
     e1 -= np.einsum("ij,ij->i", e1, nrm)[:, None] * nrm
@@ -250,16 +273,19 @@ def _test(surface, vertices, tri, centres, status, edges, pos, off, pts, fresh, 
     # vanishes (the turn the ends predict), if that lies within the polygon.
     with np.errstate(divide="ignore", invalid="ignore"):
         t = sa / (sa - sb)
-    turn = a + t[:, None] * (b - a)
+        turn = a + t[:, None] * (b - a)
     chord = k2 & ~fold & np.isfinite(t)
     chord &= np.linalg.norm(turn - centroid, axis=1) <= radius
-    # Seeds: the chord turn, the centroid (k = 2 facets whose arc leaves an
-    # end at more than 60 degrees from the chord, and k = 0), and the probe.
+    # Seeds: the chord turn; for k = 2 facets whose arc leaves an end at more
+    # than 60 degrees from the chord, the chord's quarter points and the
+    # centroid; for k = 0 facets, the centroid and the probe.
     mc = np.flatnonzero(chord)
+    bent = np.flatnonzero(k2 & ~fold & ~straight)
     mm = np.flatnonzero((k2 & ~fold & ~straight) | ~k2)
     mp = np.flatnonzero(~k2 & np.isfinite(seeds[rows, 0]))
-    srow = np.concatenate([mc, mm, mp])
-    x = np.concatenate([turn[mc], centroid[mm], seeds[rows[mp]]])
+    quarter = [a[bent] + t * (b[bent] - a[bent]) for t in (0.25, 0.5, 0.75)]
+    srow = np.concatenate([mc, bent, bent, bent, mm, mp])
+    x = np.concatenate([turn[mc], *quarter, centroid[mm], seeds[rows[mp]]])
     # Into the facet planes (the bisectors of p and q).
     mid = 0.5 * (p + q)[srow]
     x -= np.einsum("ij,ij->i", x - mid, nrm[srow])[:, None] * nrm[srow]
@@ -288,7 +314,7 @@ def _newton(surface, x, row, nrm, e1, e2, centroid, diam):
     Returns the converged seeds: ``(row (s,), x (s, 3))``.
     """
     done_r, done_x = [], []
-    for _ in range(ITERATIONS):
+    for it in range(ITERATIONS + 1):
         if len(x) == 0:
             break
         u, v, n_ = e1[row], e2[row], nrm[row]
@@ -302,10 +328,12 @@ def _newton(surface, x, row, nrm, e1, e2, centroid, diam):
         gn = np.maximum(
             np.linalg.norm(g - np.einsum("ij,ij->i", g, n_)[:, None] * n_, axis=1), 1e-300
         )
-        ok = (np.abs(f) <= 1e-9 * diam[row] * gn) & (np.abs(g2) <= 1e-7 * gn)
+        ok = (np.abs(f) <= 1e-7 * diam[row] * gn) & (np.abs(g2) <= 1e-6 * gn)
         if ok.any():
             done_r.append(row[ok])
             done_x.append(x[ok])
+        if it == ITERATIONS:
+            break
         # Jacobian of (f, g2) in the plane coordinates (s along e1, t along e2).
         j21 = np.einsum("ij,ij->i", g3[1] - g, v) / h
         j22 = np.einsum("ij,ij->i", g3[2] - g, v) / h
