@@ -16,9 +16,23 @@ per facet, all facets at once: one call of ``f`` and one of the gradient per
 iteration. A solution strictly inside the polygon is a violation (a loop, or
 an arc that folds back, which needs a facet coarse against the surface).
 
-Sampled: a loop or fold missed by every seed is not seen. Facets without
-boundary crossings are tested only where a polygon vertex lies within one
-polygon diameter of the surface to first order (``|f| / |∇f|`` in the plane).
+Which facets, and which seeds:
+
+* Facets of complex edges (2 crossings ``a``, ``b``, the surface centres of
+  the edge's two restricted facets). The gradients at ``a`` and ``b`` give
+  the arc's direction along the chord at its ends: opposite directions mean
+  a fold (a violation without Newton). A facet whose arc leaves both ends
+  within 60 degrees of the chord, in the same direction, and for which
+  ``<∇f, e2>`` interpolated linearly from ``a`` to ``b`` predicts no turn
+  within one chord length of the chord's midpoint gets no seed (and its
+  polygon is not even built). The others are seeded at that predicted turn
+  (when inside the polygon) and, when an end leaves the chord at more than
+  60 degrees, at the chord's quarter points and the polygon's centroid.
+* Facets without crossings, only where a probe on the surface lies within
+  the probe spacing of the facet, its two nearest samples being ``p`` and
+  ``q``; seeds: that probe and the centroid. Without probes none is tested.
+
+Sampled: a loop or fold missed by every seed is not seen.
 """
 
 from __future__ import annotations
@@ -33,8 +47,8 @@ from .complex import ComplexStatus
 #: Newton iterations per seed (seeds leave early when they converge or stray).
 ITERATIONS = 8
 #: Cosine of the largest angle between the arc and its chord at both ends for
-#: which a facet gets only the chord seed (the arc enters and leaves along
-#: the chord); others also get the centroid seed.
+#: which a facet of a complex edge counts as running along its chord (no
+#: quarter-point and centroid seeds).
 MONOTONE_COS = 0.5
 #: A seed whose full Newton step exceeds this many polygon diameters is dropped.
 STRAY = 0.5
@@ -42,10 +56,11 @@ STRAY = 0.5
 
 @dataclass
 class LoopMemo:
-    """Facets found clean, by edge and polygon fingerprint, plus cost counters.
+    """Facets found clean, by edge and fingerprint, plus cost counters.
 
-    A Voronoi facet whose polygon did not change since it was found clean is
-    not tested again (the surface is fixed, so its crossings did not change).
+    The fingerprint of a complex edge's facet is its two crossings, of another
+    facet its polygon: a facet whose fingerprint did not change since it was
+    found clean is not tested again (the surface is fixed).
     """
 
     keys: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
@@ -60,6 +75,8 @@ class LoopMemo:
         return (self.keys[i] == keys) & (self.prints[i] == prints)
 
     def remember(self, keys: np.ndarray, prints: np.ndarray) -> None:
+        if len(keys) == 0:
+            return
         k = np.concatenate([keys, self.keys])
         p = np.concatenate([prints, self.prints])
         o = np.argsort(k, kind="stable")  # new entries first, and they win
@@ -283,7 +300,7 @@ def _test(surface, vertices, edges, is2, a, b, ga, gb, off, pts, fresh, seeds):
     bent = np.flatnonzero(k2 & ~fold & ~straight)
     mm = np.flatnonzero((k2 & ~fold & ~straight) | ~k2)
     mp = np.flatnonzero(~k2 & np.isfinite(seeds[rows, 0]))
-    quarter = [a[bent] + t * (b[bent] - a[bent]) for t in (0.25, 0.5, 0.75)]
+    quarter = [a[bent] + u * (b[bent] - a[bent]) for u in (0.25, 0.5, 0.75)]
     srow = np.concatenate([mc, bent, bent, bent, mm, mp])
     x = np.concatenate([turn[mc], *quarter, centroid[mm], seeds[rows[mp]]])
     # Into the facet planes (the bisectors of p and q).
