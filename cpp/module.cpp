@@ -235,6 +235,50 @@ PYBIND11_MODULE(_rdt, m) {
                 to_numpy(adj, {static_cast<py::ssize_t>(adj.size())}));
           },
           py::arg("ids"), "Delaunay neighbours of samples as CSR (offsets, ids).")
+      .def(
+          "voronoi_facets",
+          [](const RestrictedDelaunay& self, const IdArray& edges) {
+            if (edges.ndim() != 2 || edges.shape(1) != 2)
+              throw std::invalid_argument("edges must have shape (m, 2)");
+            std::vector<std::int64_t> e(edges.data(), edges.data() + edges.size());
+            rdmesh::VoronoiFacets v;
+            {
+              py::gil_scoped_release release;
+              v = self.voronoi_facets(e.data(), e.size() / 2);
+            }
+            const auto total = static_cast<py::ssize_t>(v.cell.size());
+            return py::make_tuple(
+                to_numpy(v.offsets, {static_cast<py::ssize_t>(v.offsets.size())}),
+                to_numpy(v.points, {total, 3}), to_numpy(v.cell, {total}),
+                to_numpy(v.third, {total}));
+          },
+          py::arg("edges"),
+          "Voronoi facets dual to the Delaunay edges (m, 2) (sample ids) as CSR "
+          "polygons: ((m+1,) offsets, (T, 3) vertices = circumcentres of the cells "
+          "around each edge in circulator order, (T,) distinct-cell index of each "
+          "vertex, (T,) third vertex id w of the Delaunay facet (p, q, w) dual to "
+          "the polygon edge from vertex j to j+1 (cyclic), -1 for a dummy). "
+          "Raises ValueError for ids out of range or pairs that are not edges.")
+      .def(
+          "delaunay_edges",
+          [](const RestrictedDelaunay& self, const py::object& ids) {
+            std::vector<std::int64_t> v, out;
+            const bool all = ids.is_none();
+            if (!all) {
+              IdArray a = ids.cast<IdArray>();
+              if (a.ndim() != 1) throw std::invalid_argument("ids must have shape (k,)");
+              v.assign(a.data(), a.data() + a.size());
+            }
+            {
+              py::gil_scoped_release release;
+              out = self.delaunay_edges(all ? nullptr : v.data(), v.size());
+            }
+            return to_numpy(out, {static_cast<py::ssize_t>(out.size() / 2), 2});
+          },
+          py::arg("ids") = py::none(),
+          "Delaunay edges between samples as sorted pairs (k, 2), in increasing "
+          "order: the edges of the cells incident to the samples ids, or all "
+          "edges when ids is None.")
       .def("samples",
            [](const RestrictedDelaunay& self) {
              std::vector<double> s = self.samples();

@@ -83,6 +83,18 @@ struct ChangedFacets {
   SegmentSamples samples;  // per facet, its apex the smallest-id vertex
 };
 
+// Voronoi facets dual to Delaunay edges, as CSR polygons (voronoi.cpp).
+struct VoronoiFacets {
+  std::vector<std::int64_t> offsets;  // m+1: polygon k is [offsets[k], offsets[k+1])
+  std::vector<double> points;         // total*3 circumcentres, circulator order
+  // total: index of the cell of each polygon vertex into a per-call numbering
+  // of the distinct cells (so a cell's values can be computed once).
+  std::vector<std::int64_t> cell;
+  // total: polygon edge j runs from vertex j to vertex j+1 (cyclically); it is
+  // dual to the Delaunay facet (p, q, third[j]); third is -1 for a dummy.
+  std::vector<std::int64_t> third;
+};
+
 // Restricted facets, oriented outward, with their surface centres.
 struct FacetList {
   std::vector<std::int64_t> tri;    // k*3
@@ -127,6 +139,19 @@ class RestrictedDelaunay {
   void neighbours(const std::int64_t* ids, std::size_t n,
                   std::vector<std::int64_t>& offsets,
                   std::vector<std::int64_t>& adj) const;
+
+  // Voronoi facets dual to the Delaunay edges (p, q) given as m id pairs
+  // (p != q, both samples); throws std::invalid_argument for an id out of
+  // range or a pair that is not a Delaunay edge.
+  VoronoiFacets voronoi_facets(const std::int64_t* edges, std::size_t m) const;
+
+  // Delaunay edges between samples, as sorted id pairs (p < q) in increasing
+  // order: those of the cells incident to the given samples, or every such
+  // edge when ids is null.  A Voronoi facet changes only when a cell around
+  // its edge does, so the edges of the stars of a batch's new samples are
+  // the facets that batch changed.
+  std::vector<std::int64_t> delaunay_edges(const std::int64_t* ids,
+                                           std::size_t n) const;
 
   std::size_t number_of_samples() const { return samples_.size(); }
   std::size_t number_of_cells() const { return dt_.number_of_finite_cells(); }
@@ -188,6 +213,7 @@ class RestrictedDelaunay {
   std::vector<Cell_handle> around_;  // scratch
   std::int32_t round_ = 0;
   std::int32_t call_ = 0;
+  mutable std::int32_t voronoi_call_ = 0;  // voronoi_facets calls (cell numbering)
   Vertex_handle hint_;
 };
 

@@ -118,7 +118,8 @@ def test_boissonnat_oudot_report(sphere_case):
             "sampled",
             "exact given voronoi_edge",
         )
-    assert "sampled" in rep["statement"] and "not tested directly" in rep["statement"]
+    assert "sampled" in rep["statement"] and "damped Newton" in rep["statement"]
+    assert "loops no seed leads to, can be missed" in rep["statement"]
     assert "topological ball property: holds" in m.summary()
 
 

@@ -46,6 +46,7 @@ from .topology import (
     topology_report,
     voronoi_facet_test,
 )
+from .voronoi_loops import LoopMemo
 
 log = logging.getLogger("rdmesh")
 
@@ -97,6 +98,7 @@ class _State:
     probes: Probes | None = None
     critical: object = None
     phase: str = "tbp"
+    loops: LoopMemo = field(default_factory=LoopMemo)
 
 
 class Refiner:
@@ -225,6 +227,8 @@ class Refiner:
         mesh = self._mesh(st)
         with _timed(st, "report"):
             mesh.report = self._report(st, mesh, complete=not stop)
+        # The loop test's own time (refinement rounds and report).
+        st.timing["voronoi_loop"] = st.loops.seconds
         if len(mesh.unresolved):
             log.warning(
                 "%d refinement points were below the spacing floor and not inserted "
@@ -241,6 +245,7 @@ class Refiner:
             facets_evaluated=st.changed,
             phase_seconds={k: round(v, 4) for k, v in st.timing.items()},
             unresolved=len(mesh.unresolved),
+            loop_facets_tested=st.loops.tested,
             method=self.method,
             topology=self.topology,
         )
@@ -353,6 +358,8 @@ class Refiner:
             complete=complete,
             critical=st.critical,
             floor=floor,
+            rdt=st.rdt,
+            memo=st.loops,
         )
 
     def _tb_candidates(self, st: _State) -> tuple[np.ndarray, np.ndarray, str]:
@@ -378,7 +385,7 @@ class Refiner:
             )
             if found is not None:
                 return found
-            tests = ("voronoi_facet", "disk", "isolated", "silhouette")
+            tests = ("voronoi_facet", "voronoi_loop", "disk", "isolated", "silhouette")
         tri, centres, flags = st.rdt.facets(0)
         kw = {} if tests is None else {"only": tests}
         for v in run_tests(
@@ -390,6 +397,8 @@ class Refiner:
             st.probes,
             TOPO,
             silhouette_angle=CELL_NORMAL_ANGLE,
+            rdt=st.rdt,
+            memo=st.loops,
             **kw,
         ):
             found = self._floor(st, v.centres, v.radii, topo=True, stage=v.kind)

@@ -45,8 +45,8 @@ class SurfaceMesh:
             True only when every topological-ball test held, nothing was left
             unresolved and the run completed (see :attr:`topology_certified`).
         ``tests``
-            Per test (``voronoi_edge``, ``voronoi_facet``, ``disk``,
-            ``isolated``, ``silhouette``): ``held``, ``violations`` at the end,
+            Per test (``voronoi_edge``, ``voronoi_facet``, ``voronoi_loop``,
+            ``disk``, ``isolated``, ``silhouette``): ``held``, ``violations`` at the end,
             ``repaired`` (points inserted to repair it), ``basis`` ("exact",
             "sampled", ...) and what it checks.
         ``components``, ``euler``, ``closed_manifold``

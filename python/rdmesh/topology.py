@@ -16,6 +16,11 @@ restricted Delaunay triangulation is then homeomorphic to the surface
     with T1 holding that is the number of restricted facets at ``pq``. One arc
     means exactly 2 (0 means no arc or a closed loop); 1, 3 or 4 and more are
     violations. Repair: the largest incident surface ball.
+``voronoi_loop`` (T2, loops and folds)
+    A closed loop of the surface inside a Voronoi facet, or an arc that turns
+    back along its chord, found by damped Newton from a few seeds per facet
+    (:mod:`rdmesh.voronoi_loops`). Repair: the point of the facet's
+    intersection found farthest from ``p``, the centre of an empty ball.
 ``disk`` (T3)
     The restricted triangles at a sample must form one disk (one fan).
     Repair: the largest incident surface ball.
@@ -31,11 +36,10 @@ restricted Delaunay triangulation is then homeomorphic to the surface
     angle (:data:`CELL_NORMAL_ANGLE`). Repair: the probe of the cell farthest
     from ``p``, the centre of an empty ball since it lies in ``V_p``.
 
-The first four are exact combinatorial tests on the restricted complex; the
-Voronoi-edge crossings they rest on are found by sampling each edge (with a
-dip search), and the silhouette test samples each cell with the probes.
-Closed loops inside one Voronoi facet are not tested directly; only the
-probes can reveal them.
+The crossing-count, disk and isolated tests are exact combinatorial tests on
+the restricted complex; the Voronoi-edge crossings they rest on are found by
+sampling each edge (with a dip search), the loop test samples each facet with
+Newton seeds, and the silhouette test samples each cell with the probes.
 """
 
 from __future__ import annotations
@@ -52,9 +56,10 @@ from scipy.spatial import cKDTree
 from .complex import complex_status, euler_characteristics, largest_incident
 from .oracles import ImplicitSurface
 from .roots import SegmentSamples, line_crossings
+from .voronoi_loops import LoopMemo, loop_test
 
 #: The tests, in repair order.
-TESTS = ("voronoi_edge", "voronoi_facet", "disk", "isolated", "silhouette")
+TESTS = ("voronoi_edge", "voronoi_facet", "voronoi_loop", "disk", "isolated", "silhouette")
 #: Refinement threshold of the silhouette test (degrees between the normal at a
 #: probe and at its nearest sample). Below 90 so that probes see a silhouette
 #: before it lies between two probes; lower values also bound normal deviation.
@@ -74,8 +79,23 @@ _BASIS = {
     "voronoi_facet": (
         "exact given voronoi_edge",
         "every Voronoi facet's boundary crosses the surface 0 or 2 times (every complex "
-        "edge has exactly 2 restricted triangles); closed loops and second arcs inside a "
-        "facet with no boundary crossing are not tested directly (only through the probes)",
+        "edge has exactly 2 restricted triangles); what lies inside a facet is the "
+        "voronoi_loop test's",
+    ),
+    "voronoi_loop": (
+        "sampled",
+        "no Voronoi facet meets the surface in a closed loop or in an arc that turns back "
+        "along its chord: damped Newton on {f = 0, <grad f, e2> = 0} in the facet plane "
+        "from a few seeds per facet (a loop or fold missed by every seed is not seen). "
+        "Facets of complex edges (2 crossings a, b): a fold is also seen when the arc runs "
+        "backwards along the chord at one crossing; a facet whose arc leaves both crossings "
+        "within 60 degrees of the chord, in the same direction, with no turn predicted "
+        "within one chord length of the chord's midpoint by the gradients at a and b "
+        "(linearly interpolated), gets no seed; otherwise the seeds are that predicted turn "
+        "(when inside the polygon) and, when the arc leaves a crossing at more than 60 "
+        "degrees from the chord, the chord's quarter points and the polygon's centroid. "
+        "Facets without crossings are tested only where a probe lies within the probe "
+        "spacing of them (seeds: that probe and the centroid); without probes, not at all",
     ),
     "disk": (
         "exact",
@@ -152,6 +172,14 @@ def voronoi_facet_test(status, centres, radii, allow_boundary: bool = False) -> 
     f_idx, slot = np.nonzero(np.isin(status.facet_edges, bad))
     pick = largest_incident(status.facet_edges[f_idx, slot], f_idx, radii)
     return Violations("voronoi_facet", int(bad.size), centres[pick], radii[pick])
+
+
+def voronoi_loop_test(
+    surface, rdt, vertices, tri, centres, status, probes=None, tree=None, memo=None
+) -> Violations:
+    """T2 loops and folds inside Voronoi facets (:func:`rdmesh.voronoi_loops.loop_test`)."""
+    v = loop_test(surface, rdt, vertices, tri, centres, status, probes, tree, memo)
+    return Violations("voronoi_loop", len(v.edges), v.centres, v.radii)
 
 
 def disk_test(status, tri, centres, radii) -> Violations:
@@ -367,11 +395,14 @@ def run_tests(
     topo_bit: int,
     silhouette_angle: float = SILHOUETTE_ANGLE,
     only: tuple[str, ...] = TESTS,
+    rdt=None,
+    memo: LoopMemo | None = None,
 ):
     """Yield the :class:`Violations` of each test in ``only``, in repair order.
 
     A generator, so that a caller that stops at the first failing test does
-    not pay for the later ones.
+    not pay for the later ones. The loop test needs the core ``rdt`` (skipped
+    without it); ``memo`` lets it skip facets unchanged since found clean.
     """
     radii = np.linalg.norm(centres - vertices[tri[:, 0]], axis=1) if len(tri) else np.zeros(0)
     status = None
@@ -379,13 +410,18 @@ def run_tests(
     for kind in only:
         if kind == "voronoi_edge":
             yield voronoi_edge_test(tri, centres, radii, flags, topo_bit)
-        elif kind in ("voronoi_facet", "disk"):
+        elif kind in ("voronoi_facet", "voronoi_loop", "disk"):
             if status is None:
                 status = complex_status(tri, len(vertices))
             if kind == "voronoi_facet":
                 yield voronoi_facet_test(status, centres, radii)
-            else:
+            elif kind == "disk":
                 yield disk_test(status, tri, centres, radii)
+            elif rdt is not None:
+                tree = tree or cKDTree(vertices)
+                yield voronoi_loop_test(
+                    surface, rdt, vertices, tri, centres, status, probes, tree, memo
+                )
         elif kind == "isolated":
             tree = tree or cKDTree(vertices)
             yield isolated_test(surface, vertices, tri, tree)
@@ -412,15 +448,20 @@ def topology_report(
     complete: bool,
     critical=None,
     floor: float | None = None,
+    rdt=None,
+    memo: LoopMemo | None = None,
 ) -> dict[str, Any]:
     """The topology report of a finished run (see :attr:`SurfaceMesh.report`).
 
     The tests are re-run on the final samples; ``faces`` is the output mesh
-    (restricted facets) for components and Euler characteristics.
+    (restricted facets) for components and Euler characteristics. The loop
+    test needs the core ``rdt``; ``memo`` skips facets already found clean.
     """
     tests: dict[str, dict[str, Any]] = {}
     where = []
-    for v in run_tests(surface, vertices, tri, centres, flags, probes, topo_bit):
+    for v in run_tests(
+        surface, vertices, tri, centres, flags, probes, topo_bit, rdt=rdt, memo=memo
+    ):
         basis, what = _BASIS[v.kind]
         tests[v.kind] = {
             "held": v.count == 0,
@@ -430,15 +471,16 @@ def topology_report(
             "tests": what,
         }
         where.append(v.centres)
-    if "silhouette" not in tests:
-        basis, what = _BASIS["silhouette"]
-        tests["silhouette"] = {
-            "held": None,
-            "violations": None,
-            "repaired": 0,
-            "basis": "not tested",
-            "tests": what,
-        }
+    for kind in ("voronoi_loop", "silhouette"):
+        if kind not in tests:
+            tests[kind] = {
+                "held": None,
+                "violations": None,
+                "repaired": 0,
+                "basis": "not tested",
+                "tests": _BASIS[kind][1],
+            }
+    tests = {k: tests[k] for k in TESTS}
     chi = euler_characteristics(faces, n_mesh_vertices)
     # The output faces are the restricted facets: every edge in two faces is
     # the Voronoi-facet test, one fan per vertex is the disk test.
@@ -504,9 +546,11 @@ def _statement(rep: dict[str, Any]) -> str:
             "exact (combinatorial): every complex edge has 2 triangles (Voronoi-facet "
             "crossing count), every sample has one disk of triangles, no sample lacks "
             "triangles; sampled: one transversal crossing per Voronoi edge (edge "
-            f"sampling plus dip search, no interval arithmetic), no silhouette point in "
-            f"any Voronoi cell ({probe_text}); not tested directly: closed loops inside "
-            "a single Voronoi facet. Features smaller than the probe spacing can be missed."
+            f"sampling plus dip search, no interval arithmetic), no closed loop or folded "
+            "arc inside a Voronoi facet (damped Newton from a few seeds per facet; facets "
+            "without boundary crossings only where a probe is near them), no silhouette "
+            f"point in any Voronoi cell ({probe_text}). Features smaller than the probe "
+            "spacing, and loops no seed leads to, can be missed."
         )
     else:
         why = []
