@@ -27,7 +27,7 @@ class ComplexStatus:
     ----------
     edge_key : (E,) int64 key ``min * n + max`` of each distinct edge.
     edge_count : (E,) facets per edge.
-    facet_edges : (F, 3) index into ``edge_key`` of each facet's edges.
+    facet_edges : (F, 3) int32 index into ``edge_key`` of each facet's edges.
     vertex_fans : (n,) number of fans around each vertex (0 where it has no facet).
     """
 
@@ -55,11 +55,19 @@ def complex_status(faces: np.ndarray, n_vertices: int) -> ComplexStatus:
     faces = np.asarray(faces, dtype=np.int64)
     F = len(faces)
     a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
-    keys = np.concatenate(
-        [_pair_keys(a, b, n_vertices), _pair_keys(b, c, n_vertices), _pair_keys(c, a, n_vertices)]
-    )
-    edge_key, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
-    facet_edges = inverse.reshape(3, F).T
+    # Written into one array and inverted by search, not np.unique, whose
+    # temporaries set the peak memory of a large run.
+    keys = np.empty(3 * F, np.int64)
+    for j, (u, v) in enumerate(((a, b), (b, c), (c, a))):
+        keys[j * F : (j + 1) * F] = _pair_keys(u, v, n_vertices)
+    sk = np.sort(keys)
+    first = np.r_[True, sk[1:] != sk[:-1]] if F else np.zeros(0, bool)
+    edge_key = sk[first]
+    counts = np.diff(np.r_[np.flatnonzero(first), len(sk)])
+    del sk, first
+    # Edge indices fit in int32 (fewer than 2**31 edges); halves the memory.
+    facet_edges = np.searchsorted(edge_key, keys).astype(np.int32).reshape(3, F).T
+    del keys
     # Fans: nodes are spokes, an edge seen from one of its ends (2 per edge:
     # 2 e + [seen from the larger id]); each facet joins the two spokes at
     # each corner, so a fan is a connected set of spokes.

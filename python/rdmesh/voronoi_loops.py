@@ -50,6 +50,8 @@ ITERATIONS = 8
 #: which a facet of a complex edge counts as running along its chord (no
 #: quarter-point and centroid seeds).
 MONOTONE_COS = 0.5
+#: Complex edges screened at a time (bounds the test's memory).
+SCREEN_CHUNK = 1 << 14
 #: A seed whose full Newton step exceeds this many polygon diameters is dropped.
 STRAY = 0.5
 
@@ -126,27 +128,43 @@ def loop_test(
     # Complex edges with 2 crossings: their restricted facets' centres. Other
     # non-zero counts are the crossing-count test's.
     pos = np.flatnonzero(status.edge_count == 2)
-    e2 = np.column_stack([status.edge_key[pos] // n, status.edge_key[pos] % n])
-    fa, fb = _crossing_facets(status, len(tri))
-    fa, fb = fa[pos], fb[pos]
-    a, b = centres[fa], centres[fb]
-    keys2 = (e2[:, 0] << 32) | e2[:, 1]
-    prints2 = a @ _W + b @ (2 * _W) + 1.0
-    fresh2 = ~memo.known(keys2, prints2)
-    e2, fa, fb, a, b = e2[fresh2], fa[fresh2], fb[fresh2], a[fresh2], b[fresh2]
-    keys2, prints2 = keys2[fresh2], prints2[fresh2]
+    fa_all, fb_all = _crossing_facets(status, len(tri))
+    fa_all, fb_all = fa_all[pos], fb_all[pos]
     need = np.zeros(len(tri), bool)
-    need[fa] = need[fb] = True
+    need[fa_all] = need[fb_all] = True
     slot = np.cumsum(need) - 1
     g = surface.grad(centres[need])
-    ga, gb = g[slot[fa]], g[slot[fb]]
-    # Facets whose arc evidently runs along its chord need no polygon and no
-    # Newton (see _screen).
-    plain = _screen(vertices, e2, a, b, ga, gb)
-    memo.remember(keys2[plain], prints2[plain])
-    rest = ~plain
-    e2, a, b, ga, gb = e2[rest], a[rest], b[rest], ga[rest], gb[rest]
-    keys2, prints2 = keys2[rest], prints2[rest]
+    # Screen in chunks: the temporaries of all complex edges at once would
+    # dominate the peak memory of a large run.
+    rests, plain_keys, plain_prints = [], [], []
+    for lo in range(0, len(pos), SCREEN_CHUNK):
+        sl = slice(lo, lo + SCREEN_CHUNK)
+        key = status.edge_key[pos[sl]]
+        e2 = np.column_stack([key // n, key % n])
+        fa, fb = fa_all[sl], fb_all[sl]
+        a, b = centres[fa], centres[fb]
+        keys2 = (e2[:, 0] << 32) | e2[:, 1]
+        prints2 = a @ _W + b @ (2 * _W) + 1.0
+        fresh2 = ~memo.known(keys2, prints2)
+        e2, fa, fb, a, b = e2[fresh2], fa[fresh2], fb[fresh2], a[fresh2], b[fresh2]
+        keys2, prints2 = keys2[fresh2], prints2[fresh2]
+        ga, gb = g[slot[fa]], g[slot[fb]]
+        # Facets whose arc evidently runs along its chord need no polygon and
+        # no Newton (see _screen).
+        plain = _screen(vertices, e2, a, b, ga, gb)
+        plain_keys.append(keys2[plain])
+        plain_prints.append(prints2[plain])
+        rest = ~plain
+        rests.append((e2[rest], a[rest], b[rest], ga[rest], gb[rest], prints2[rest]))
+    del fa_all, fb_all, need, slot, g
+    n_plain = sum(len(k) for k in plain_keys)
+    if plain_keys:
+        memo.remember(np.concatenate(plain_keys), np.concatenate(plain_prints))
+    if rests:
+        e2, a, b, ga, gb, prints2 = (np.concatenate(c) for c in zip(*rests, strict=True))
+    else:
+        e2, a, b, ga, gb = np.zeros((0, 2), np.int64), *(np.zeros((0, 3)),) * 4
+        prints2 = np.zeros(0)
     e0, seeds0 = np.zeros((0, 2), np.int64), np.zeros((0, 3))
     if probes is not None and len(probes.points) and len(vertices) >= 2:
         e0, seeds0 = _probe_edges(vertices, probes, tree)
@@ -175,7 +193,7 @@ def loop_test(
     clean = fresh.copy()
     clean[bad] = False
     memo.remember(keys[clean], prints[clean])
-    memo.tested += int(plain.sum() + fresh.sum())
+    memo.tested += int(n_plain + fresh.sum())
     memo.seconds += time.perf_counter() - t0
     return LoopViolations(edges[bad], x, r)
 
@@ -196,9 +214,9 @@ def _crossing_facets(status, n_facets):
     """For each edge of the complex, its smallest and largest facet index
     (the two restricted facets of an edge with 2)."""
     fe = status.facet_edges.ravel()
-    f_of = np.repeat(np.arange(n_facets), 3)
-    first = np.full(len(status.edge_key), n_facets, np.int64)
-    last = np.full(len(status.edge_key), -1, np.int64)
+    f_of = np.repeat(np.arange(n_facets, dtype=np.int32), 3)
+    first = np.full(len(status.edge_key), n_facets, np.int32)
+    last = np.full(len(status.edge_key), -1, np.int32)
     np.minimum.at(first, fe, f_of)
     np.maximum.at(last, fe, f_of)
     return first, last
