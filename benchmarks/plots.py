@@ -110,8 +110,10 @@ def _per_surface(results: dict, value, ylabel: str, title: str, path: Path) -> P
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             handles.setdefault(lab, h)
     if handles:
+        # About two legend entries fit under each 3.6-inch panel.
+        width = 2 * _grid(len(axes))[1]
         fig.legend(handles.values(), handles.keys(), loc="outside lower center",
-                   ncols=min(5, len(handles)))  # fmt: skip
+                   ncols=min(width, len(handles)))  # fmt: skip
     fig.suptitle(title)
     fig.savefig(path, dpi=110)
     plt.close(fig)
