@@ -222,6 +222,15 @@ def _crossing_facets(status, n_facets):
     return first, last
 
 
+def _end_slopes(ga, gb, e2):
+    """``<grad f, e2>`` at the crossings ``a`` and ``b``, and its cosine with
+    the gradient (how closely the arc follows the chord there)."""
+    sa, sb = np.einsum("ij,ij->i", ga, e2), np.einsum("ij,ij->i", gb, e2)
+    ca = np.abs(sa) / np.maximum(np.linalg.norm(ga, axis=1), 1e-300)
+    cb = np.abs(sb) / np.maximum(np.linalg.norm(gb, axis=1), 1e-300)
+    return sa, sb, ca, cb
+
+
 def _screen(vertices, edges, a, b, ga, gb):
     """Complex edges whose facet arc evidently runs along its chord ``ab``.
 
@@ -238,9 +247,7 @@ def _screen(vertices, edges, a, b, ga, gb):
     e1 -= np.einsum("ij,ij->i", e1, nrm)[:, None] * nrm
     length = np.linalg.norm(e1, axis=1)
     e2 = np.cross(nrm, e1 / np.maximum(length, 1e-300)[:, None])
-    sa, sb = np.einsum("ij,ij->i", ga, e2), np.einsum("ij,ij->i", gb, e2)
-    ca = np.abs(sa) / np.maximum(np.linalg.norm(ga, axis=1), 1e-300)
-    cb = np.abs(sb) / np.maximum(np.linalg.norm(gb, axis=1), 1e-300)
+    sa, sb, ca, cb = _end_slopes(ga, gb, e2)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = sa / (sa - sb)
     far = ~(np.abs(t - 0.5) <= 1.0)  # NaN (no turn) counts as far
@@ -299,10 +306,8 @@ def _test(surface, vertices, edges, is2, a, b, ga, gb, off, pts, fresh, seeds):
     e2 = np.cross(nrm, e1)
     # The arc's direction along the chord is sign(<grad f, e2>) (the tangent
     # is n x grad f): opposite signs at a and b mean the arc turns back.
-    sa, sb = np.einsum("ij,ij->i", ga, e2), np.einsum("ij,ij->i", gb, e2)
+    sa, sb, ca, cb = _end_slopes(ga, gb, e2)
     fold = k2 & (sa * sb < 0)
-    ca = np.abs(sa) / np.maximum(np.linalg.norm(ga, axis=1), 1e-300)
-    cb = np.abs(sb) / np.maximum(np.linalg.norm(gb, axis=1), 1e-300)
     straight = k2 & (np.minimum(ca, cb) >= MONOTONE_COS)
     # Chord seed: where <grad f, e2>, interpolated linearly from a to b,
     # vanishes (the turn the ends predict), if that lies within the polygon.
