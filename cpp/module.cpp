@@ -10,6 +10,10 @@
 #include <cstring>
 #include <string>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include "rdt.hpp"
 
 namespace py = pybind11;
@@ -308,4 +312,17 @@ PYBIND11_MODULE(_rdt, m) {
       py::arg("centres"), py::arg("radii"),
       "Indices of a greedy independent set of balls: by decreasing radius, a "
       "ball is kept unless its centre lies in a kept ball.");
+
+  m.def(
+      "trim_heap",
+      []() {
+#if defined(__GLIBC__)
+        py::gil_scoped_release release;
+        return malloc_trim(0) == 1;
+#else
+        return false;
+#endif
+      },
+      "Return the heap's free pages to the system (glibc's malloc_trim); "
+      "True if memory was released, False elsewhere or when none was.");
 }
