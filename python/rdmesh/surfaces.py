@@ -117,18 +117,24 @@ def two_spheres(gap: float = 0.1) -> ImplicitSurface:
 
 def blob_line() -> ImplicitSurface:
     """Three merging Gaussian blobs along the x axis."""
-    centres = np.array([[-0.9, 0.0, 0.0], [0.0, 0.0, 0.0], [0.9, 0.0, 0.0]])
+    # 0.5 - sum_k exp(-|p - c_k|^2 / 0.25), c_k = (-0.9, 0, 0), (0, 0, 0), (0.9, 0, 0).
+    # Column-wise: (N, 3, 3) temporaries made f four times slower.
+    xs = (-0.9, 0.0, 0.9)
 
     def terms(p):
-        d = p[:, None, :] - centres[None, :, :]
-        return d, np.exp(-np.einsum("ijk,ijk->ij", d, d) / 0.25)
+        x = p[:, 0]
+        q = p[:, 1] * p[:, 1] + p[:, 2] * p[:, 2]
+        return x, [np.exp(-4.0 * ((x - c) * (x - c) + q)) for c in xs]
 
     def f(p):
-        return 0.5 - terms(p)[1].sum(axis=1)
+        _, e = terms(p)
+        return 0.5 - (e[0] + e[1] + e[2])
 
     def grad(p):
-        d, e = terms(p)
-        return np.einsum("ij,ijk->ik", e, d) * (2.0 / 0.25)
+        x, e = terms(p)
+        total = e[0] + e[1] + e[2]
+        gx = 8.0 * sum(ek * (x - c) for ek, c in zip(e, xs, strict=True))
+        return np.column_stack([gx, 8.0 * total * p[:, 1], 8.0 * total * p[:, 2]])
 
     return ImplicitSurface(f, ((0, 0, 0), 2.0), gradient=grad, name="blob line")
 
