@@ -366,3 +366,26 @@ def test_targets():
     assert got[(1_000_000, "cgal_mesh_3 completes 1M within 24 GB")]["passed"] is False
     md = report.targets_table(res)
     assert "**pass**" in md and "**FAIL**" in md and "not measured" in md
+
+
+def test_profile_run_reports_cpu_and_phases():
+    cmd = [sys.executable, str(BENCH / "profile_run.py"), "sphere", "0.15", "--repeats", "2"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    rows = [json.loads(line) for line in proc.stdout.splitlines()]
+    assert len(rows) == 2
+    for row in rows:
+        assert row["vertices"] > 50
+        assert 0 < row["wall_s"] and 0 < row["cpu_s"]
+        assert math.isclose(row["cpu_per_wall"], row["cpu_s"] / row["wall_s"], abs_tol=0.01)
+        assert {"insert", "evaluate", "report"} <= set(row["phase_seconds"])
+        assert max(row["phase_seconds"].values()) <= row["wall_s"]
+    # Deterministic: both runs give the same mesh size.
+    assert rows[0]["vertices"] == rows[1]["vertices"]
+
+
+def test_profile_run_rejects_unknown_surface():
+    cmd = [sys.executable, str(BENCH / "profile_run.py"), "nosuch", "0.1"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)
+    assert proc.returncode == 2
+    assert "unknown surface 'nosuch'" in proc.stderr
