@@ -5,7 +5,7 @@
 Meshes a built-in surface with radius bound = distance bound = r, and prints
 for each run the wall time, the CPU time of the process over the run (both
 threads: Python's and the C++ core's), its ratio to the wall time, the
-evaluations of f and ``stats["phase_seconds"]``::
+evaluations of f, the process's peak RSS so far and ``stats["phase_seconds"]``::
 
     python benchmarks/profile_run.py torus 0.01096 --repeats 3
 
@@ -59,6 +59,8 @@ def main(argv: list[str] | None = None) -> int:
             "cpu_s": round(cpu, 3),
             "cpu_per_wall": round(cpu / wall, 2),
             "evaluations_per_vertex": round(s["evaluations"] / s["vertices"], 1),
+            # High-water mark of the process: the first repeat's is that run's peak.
+            "peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024),
             "phase_seconds": s["phase_seconds"],
         }
         print(json.dumps(row), flush=True)

@@ -379,6 +379,7 @@ def test_profile_run_reports_cpu_and_phases():
         assert row["wall_s"] > 0 and row["cpu_s"] > 0
         assert math.isclose(row["cpu_per_wall"], row["cpu_s"] / row["wall_s"], abs_tol=0.01)
         assert {"insert", "evaluate", "report"} <= set(row["phase_seconds"])
+        assert row["peak_rss_mb"] > 50  # the interpreter with numpy and scipy alone
         assert max(row["phase_seconds"].values()) <= row["wall_s"]
     # Deterministic: both runs give the same mesh size.
     assert rows[0]["vertices"] == rows[1]["vertices"]
