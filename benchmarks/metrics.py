@@ -160,7 +160,7 @@ def topology_stats(
     True when the mesh is a closed manifold with the expected number of
     components and Euler characteristic (None when nothing is expected).
     """
-    from rdmesh.complex import complex_status, euler_characteristics
+    from rdmesh.topology.complex import complex_status, euler_characteristics
 
     n = len(vertices)
     faces = np.asarray(faces, dtype=np.int64)

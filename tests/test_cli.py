@@ -11,7 +11,6 @@ import re
 import signal
 import subprocess
 import sys
-import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -352,7 +351,7 @@ def test_progress_bar_shows_rounds_vertices_and_stage():
     text = out.getvalue()
     assert text.endswith("\n")
     final = text.rstrip("\n").split("\r")[-1]
-    assert re.fullmatch(r"rdmesh: 400 vertices \[00:00, round=4, stage=facet\] *", final)
+    assert re.fullmatch(r"rdmesh: 400 vertices \[\d\d:\d\d, round=4, stage=facet\] *", final)
     # With a vertex budget the bar shows the fraction.
     out = io.StringIO()
     with ProgressBar(total=800, file=out, delay=0.0) as bar:
@@ -361,8 +360,10 @@ def test_progress_bar_shows_rounds_vertices_and_stage():
     assert "200/800 vertices" in out.getvalue()
 
 
-def test_progress_bar_keeps_log_records_on_their_own_lines():
+def test_progress_bar_keeps_log_records_on_their_own_lines(monkeypatch):
+    # The bar writes log records above itself for console handlers (stderr).
     out = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", out)
     logger = logging_setup(out)
     try:
         with ProgressBar(file=out, delay=0.0) as bar:
@@ -408,10 +409,28 @@ def test_api_progress_true_shows_a_bar_on_stderr(capfd, monkeypatch):
     assert captured.err.endswith("\n")
 
 
-def test_progress_thread_is_gone_after_the_run():
-    with ProgressBar(file=io.StringIO(), delay=0.0) as bar:
-        _feed(bar, 1, 0.01)
-    assert not any(t.name == "rdmesh-progress" for t in threading.enumerate())
+class _InterruptOnce(io.StringIO):
+    """A stream whose first write of a bar raises KeyboardInterrupt (Ctrl-C mid-draw)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.armed = True
+
+    def write(self, s: str) -> int:
+        if self.armed and "100 vertices" in s:
+            self.armed = False
+            raise KeyboardInterrupt
+        return super().write(s)
+
+
+def test_progress_bar_ends_its_line_after_ctrl_c_mid_draw():
+    out = _InterruptOnce()
+    with pytest.raises(KeyboardInterrupt), ProgressBar(file=out, delay=0.0) as bar:
+        _feed(bar, 1, 0.0)
+    assert not out.armed
+    # The final state is drawn and the line ended, so the next message starts clean.
+    assert out.getvalue().endswith("]\n")
+    assert "100 vertices" in out.getvalue()
 
 
 # -- the interrupt paths, in-process with a stand-in for mesh_surface --------------------------

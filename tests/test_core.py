@@ -7,10 +7,9 @@ import itertools
 import numpy as np
 import pytest
 from meshcheck import face_normals
-from rdmesh import _rdt
-from rdmesh.criteria import FacetCriteria, circumradii
-from rdmesh.facets import DualSamples, evaluate_facets
-from rdmesh.refine import BAD, OUTWARD, RESTRICTED
+from rdmesh.core import BAD, OUTWARD, RESTRICTED, _rdt
+from rdmesh.refine.criteria import FacetCriteria, circumradii
+from rdmesh.refine.facets import DualSamples, evaluate_facets
 from rdmesh.surfaces import SURFACES
 
 

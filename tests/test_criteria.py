@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 from meshcheck import circumcentre_ref, triangle_angles_deg
-from rdmesh.criteria import (
+from rdmesh.refine.criteria import (
     FacetCriteria,
     circumcentres,
     circumradii,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import rdmesh
 from rdmesh import ImplicitSurface, RdmeshError
-from rdmesh.expressions import (
+from rdmesh.surfaces.expressions import (
     FUNCTIONS,
     MAX_DEPTH,
     MAX_LENGTH,

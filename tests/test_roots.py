@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import rdmesh
-from rdmesh.roots import SegmentSamples, line_crossings
+from rdmesh.sampling.roots import SegmentSamples, line_crossings
 from rdmesh.surfaces import SURFACES
 from scipy.optimize import brentq
 

@@ -17,9 +17,12 @@ from meshcheck import (
     face_components,
     triangle_angles_deg,
 )
-from rdmesh.seeding import critical_points, grid_scan
+from rdmesh.sampling.critical import critical_points
+from rdmesh.sampling.grid import grid_scan
+from rdmesh.sampling.probes import Probes, unit_normals
 from rdmesh.surfaces import SURFACES
-from rdmesh.topology import TESTS, Probes, regions, silhouette_test, unit_normals
+from rdmesh.topology.regions import regions
+from rdmesh.topology.tests import TESTS, silhouette_test
 from scipy.spatial import cKDTree
 
 TB = "topological-ball"

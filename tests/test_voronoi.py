@@ -1,14 +1,14 @@
-"""Voronoi facets from the core and the T2 loop test (rdmesh.voronoi_loops)."""
+"""Voronoi facets from the core and the T2 loop test (rdmesh.topology.loops)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 import rdmesh
-from rdmesh import _rdt
-from rdmesh.complex import complex_status
-from rdmesh.topology import Probes
-from rdmesh.voronoi_loops import LoopMemo, loop_test
+from rdmesh.core import _rdt
+from rdmesh.sampling.probes import Probes
+from rdmesh.topology.complex import complex_status
+from rdmesh.topology.loops import LoopMemo, loop_test
 from scipy.spatial import cKDTree
 
 

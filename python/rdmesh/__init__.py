@@ -16,12 +16,12 @@ from ._errors import (
     OracleError,
     RdmeshError,
 )
-from ._rdt import CGAL_VERSION
 from .api import mesh_surface
-from .criteria import FacetCriteria
-from .expressions import ExpressionError
-from .oracles import ImplicitSurface
-from .result import SurfaceMesh
+from .core import CGAL_VERSION
+from .io.result import SurfaceMesh
+from .refine.criteria import FacetCriteria
+from .surfaces.expressions import ExpressionError
+from .surfaces.oracle import ImplicitSurface
 
 logging.getLogger("rdmesh").addHandler(logging.NullHandler())
 

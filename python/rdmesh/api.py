@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 
-import numpy as np
-
-from .criteria import FacetCriteria, Sizing
-from .oracles import ImplicitSurface
-from .refine import METHODS, TOPOLOGIES, Budget, Refiner
-from .result import SurfaceMesh
+from ._validate import choice, integer, positive
+from .io.result import SurfaceMesh
+from .refine.criteria import FacetCriteria, Sizing
+from .refine.mesher import Budget, Mesher
+from .refine.methods import METHODS, TOPOLOGIES
+from .surfaces.oracle import ImplicitSurface
 
 
 def mesh_surface(
@@ -54,7 +53,7 @@ def mesh_surface(
         The refinement algorithm. "topological-ball" (Cheng-Dey-Ramos-Ray)
         first refines until the sample has the topological ball property
         (every Voronoi edge, facet and cell meets the surface in a ball; see
-        :mod:`rdmesh.topology`), so the topology is right at any size, then
+        :mod:`rdmesh.topology.tests`), so the topology is right at any size, then
         applies the criteria while keeping the property. It seeds with the
         critical points of a random height function as well as the grid.
         Points driven by topology are refused below 0.01 x radius_bound, or
@@ -105,10 +104,8 @@ def mesh_surface(
         raise ValueError(
             f"surface must be an rdmesh.ImplicitSurface, got {type(surface).__name__}"
         )
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; use one of {', '.join(METHODS)}")
-    if topology not in TOPOLOGIES:
-        raise ValueError(f"unknown topology {topology!r}; use one of {', '.join(TOPOLOGIES)}")
+    choice("method", method, METHODS)
+    choice("topology", topology, TOPOLOGIES)
     if method == "topological-ball" and topology != "manifold":
         raise ValueError(
             f"method 'topological-ball' always produces a closed manifold; topology "
@@ -118,51 +115,35 @@ def mesh_surface(
         radius_bound = surface.radius / 20.0
     criteria = FacetCriteria(angle_bound, radius_bound, distance_bound)
     if max_vertices is not None:
-        if isinstance(max_vertices, bool) or int(max_vertices) != max_vertices or max_vertices < 1:
-            raise ValueError(f"max_vertices must be a positive integer, got {max_vertices!r}")
-        max_vertices = int(max_vertices)
+        max_vertices = integer("max_vertices", max_vertices, lo=1)
     if time_limit is not None:
-        t = float(time_limit)
-        if not math.isfinite(t) or t <= 0:
-            raise ValueError(
-                f"time_limit must be a positive number of seconds, got {time_limit!r}"
-            )
-    if (
-        isinstance(seed_resolution, bool)
-        or int(seed_resolution) != seed_resolution
-        or not (8 <= seed_resolution <= 256)
-    ):
-        raise ValueError(
-            f"seed_resolution must be an integer in [8, 256], got {seed_resolution!r}"
-        )
+        positive("time_limit", time_limit, " of seconds")
+    seed_resolution = integer("seed_resolution", seed_resolution, 8, 256)
     try:
         seed = int(seed)
     except (TypeError, ValueError):
         raise ValueError(f"seed must be an integer, got {seed!r}") from None
-    if (
-        not isinstance(workers, (int, np.integer))
-        or isinstance(workers, bool)
-        or not (1 <= workers <= 64)
-    ):
+    if isinstance(workers, float):
         raise ValueError(f"workers must be an integer from 1 to 64, got {workers!r}")
+    workers = integer("workers", workers, 1, 64)
     budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
     if progress is not True and progress is not False and not callable(progress):
         raise ValueError(f"progress must be True, False or a callable, got {progress!r}")
-    refiner = Refiner(
+    mesher = Mesher(
         surface,
         criteria,
-        topology,
-        seed,
-        budget,
-        int(seed_resolution),
-        progress if callable(progress) else None,
-        int(workers),
-        method,
+        method=method,
+        topology=topology,
+        seed=seed,
+        budget=budget,
+        seed_resolution=seed_resolution,
+        progress=progress if callable(progress) else None,
+        workers=workers,
     )
     if progress is True:
         from .progress import ProgressBar
 
         with ProgressBar() as bar:
-            refiner.progress = bar.update
-            return refiner.run()
-    return refiner.run()
+            mesher.progress = bar.update
+            return mesher.run()
+    return mesher.run()

@@ -35,14 +35,14 @@ import math
 import os
 import sys
 
-from . import __version__, _rdt
+from . import __version__, core
 from ._errors import BudgetExceeded, Interrupted, RdmeshError
 from .api import METHODS, mesh_surface
-from .expressions import CONSTANTS, VARIABLES, parse_expression
-from .oracles import ImplicitSurface
-from .refine import TOPOLOGIES
-from .result import MESH_FORMATS, SurfaceMesh
+from .io.result import MESH_FORMATS, SurfaceMesh
+from .refine.methods import TOPOLOGIES
 from .surfaces import SURFACES, get
+from .surfaces.expressions import CONSTANTS, VARIABLES, parse_expression
+from .surfaces.oracle import ImplicitSurface
 
 EXIT_OK, EXIT_BUDGET, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -144,7 +144,7 @@ def _parser() -> argparse.ArgumentParser:
         epilog=_EPILOG,
     )
     p.add_argument(
-        "--version", action="version", version=f"rdmesh {__version__} (CGAL {_rdt.CGAL_VERSION})"
+        "--version", action="version", version=f"rdmesh {__version__} (CGAL {core.CGAL_VERSION})"
     )
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 

@@ -8,29 +8,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._errors import OracleError
+from .._errors import OracleError
+from .._tol import GRADIENT_STEP
+from .._validate import sphere
 
 ArrayFunction = Callable[[np.ndarray], np.ndarray]
 
 # Larger arrays are evaluated in pieces so that memory stays bounded.
 _CHUNK = 1 << 22
-
-
-def _check_sphere(bounding_sphere: tuple) -> tuple[np.ndarray, float]:
-    try:
-        centre, radius = bounding_sphere
-    except (TypeError, ValueError):
-        raise ValueError("bounding_sphere must be a pair (centre, radius)") from None
-    c = np.asarray(centre, dtype=float)
-    if c.shape != (3,) or not np.all(np.isfinite(c)):
-        raise ValueError(f"bounding sphere centre must be 3 finite numbers, got {centre!r}")
-    try:
-        r = float(radius)
-    except (TypeError, ValueError):
-        raise ValueError(f"bounding sphere radius must be a number, got {radius!r}") from None
-    if not np.isfinite(r) or r <= 0:
-        raise ValueError(f"bounding sphere radius must be positive and finite, got {radius!r}")
-    return c, r
 
 
 @dataclass
@@ -68,7 +53,7 @@ class ImplicitSurface:
             raise ValueError("f must be callable on an (N, 3) array")
         if self.gradient is not None and not callable(self.gradient):
             raise ValueError("gradient must be callable or None")
-        self.centre, self.radius = _check_sphere(self.bounding_sphere)
+        self.centre, self.radius = sphere(self.bounding_sphere)
         self._lock = threading.Lock()
         self.bounding_sphere = (self.centre, self.radius)
 
@@ -83,7 +68,7 @@ class ImplicitSurface:
         text : str
             For example ``"x**2 + y**2 + z**2 - 1"``. Only numbers, ``x y z``,
             ``pi e tau``, ``+ - * / **`` and whitelisted math functions are
-            accepted (see :mod:`rdmesh.expressions`); it is never ``eval``-ed.
+            accepted (see :mod:`rdmesh.surfaces.expressions`); it is never ``eval``-ed.
         bounding_sphere : (centre, radius)
             A sphere that strictly contains the surface.
         name : str, optional
@@ -97,14 +82,14 @@ class ImplicitSurface:
 
         Raises
         ------
-        rdmesh.expressions.ExpressionError
+        rdmesh.ExpressionError
             (a ValueError) naming what is not allowed, or a syntax error.
         """
         from .expressions import parse_expression
 
         expr = parse_expression(text)
-        centre, radius = _check_sphere(bounding_sphere)
-        step = 1e-6 * radius
+        centre, radius = sphere(bounding_sphere)
+        step = GRADIENT_STEP * radius
 
         def gradient(points: np.ndarray) -> np.ndarray:
             return expr.gradient(points, step=step)
@@ -162,7 +147,7 @@ class ImplicitSurface:
                     f"the gradient function must return {n} finite rows of 3, got {g.shape}"
                 )
             return g
-        h = 1e-6 * self.radius
+        h = GRADIENT_STEP * self.radius
         steps = np.eye(3) * h
         probe = np.concatenate(
             [pts[None, :, :] + steps[:, None, :], pts[None, :, :] - steps[:, None, :]]

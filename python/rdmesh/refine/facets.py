@@ -13,25 +13,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _rdt
-from .oracles import ImplicitSurface
-from .roots import SegmentSamples, line_crossings
+from .. import core
+from .._tol import (
+    MAX_INTERVALS,
+    MIN_INTERVALS,
+    ROOT_ATOL,
+    SAMPLES_PER_RADIUS,
+    TANGENCY_COS,
+)
+from ..sampling.roots import SegmentSamples, line_crossings
+from ..surfaces.oracle import ImplicitSurface
 
-#: Samples per unit of asinh(distance / circumradius): spacing about r.
-SAMPLES_PER_RADIUS = 1.0
-#: Bounds on the intervals per segment.
-MIN_INTERVALS, MAX_INTERVALS = 3, 64
 #: What the core's changed_facets and sample_segments take.
 SAMPLING = {
     "per_radius": SAMPLES_PER_RADIUS,
     "min_intervals": MIN_INTERVALS,
     "max_intervals": MAX_INTERVALS,
 }
-#: A crossing whose direction makes |cos| below this with the gradient is tangential.
-TANGENCY_COS = 1e-3
-#: Root tolerance relative to the bounding radius. Fixed per run (not per
-#: chunk) so that results do not depend on how facets are grouped.
-ROOT_ATOL = 1e-10
 
 
 @dataclass
@@ -52,7 +50,7 @@ class FacetEval:
 @dataclass
 class DualSamples:
     """Samples of k dual segments, as the core makes them (see
-    ``_rdt.sample_segments``): flat positions plus the interior points."""
+    ``core.sample_segments``): flat positions plus the interior points."""
 
     offsets: np.ndarray  # (k + 1,)
     s: np.ndarray  # (P,)
@@ -60,7 +58,7 @@ class DualSamples:
 
     @classmethod
     def of(cls, seg: np.ndarray, apex: np.ndarray, rho: np.ndarray) -> DualSamples:
-        return cls(*_rdt.sample_segments(seg, apex, rho, **SAMPLING))
+        return cls(*core.sample_segments(seg, apex, rho, **SAMPLING))
 
     def take(self, sl: slice) -> DualSamples:
         """The samples of segments ``sl`` (a contiguous slice)."""

@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import elementwise
 
-from .oracles import ImplicitSurface
+from .._tol import DIP_FRACTION
+from ..surfaces.oracle import ImplicitSurface
 
 log = logging.getLogger("rdmesh")
 
@@ -155,11 +156,6 @@ def _roots(surface, o, d, lo, hi, xatol):
     if failed.any():
         log.debug("find_root: %d brackets did not converge", int(failed.sum()))
     return np.where(failed, 0.5 * (res.bracket[0] + res.bracket[1]), res.x)
-
-
-#: A same-sign sample is a dip when |f| there is a local minimum below this
-#: fraction of |f| at its larger neighbour.
-DIP_FRACTION = 0.25
 
 
 def _dips(seg_of, s, values, inside, same):

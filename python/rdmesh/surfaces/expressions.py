@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._errors import RdmeshError
+from .._errors import RdmeshError
 
 __all__ = [
     "CONSTANTS",

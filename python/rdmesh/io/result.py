@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from .complex import complex_status, euler_characteristics
-from .criteria import min_angles
+from ..refine.criteria import min_angles
+from ..topology.complex import complex_status, euler_characteristics
 
 #: File formats :meth:`SurfaceMesh.save` writes (through trimesh).
 MESH_FORMATS = ("ply", "obj", "stl", "off", "glb", "gltf", "3mf", "dae")
@@ -68,6 +68,27 @@ class SurfaceMesh:
     complete: bool = True
     unresolved: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     report: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def from_facets(
+        cls, samples: np.ndarray, tri: np.ndarray, centres: np.ndarray, unresolved: np.ndarray
+    ) -> SurfaceMesh:
+        """The mesh of restricted facets ``tri`` (sample ids, oriented) with their
+        surface centres: only the samples they use, renumbered; deterministic
+        order (each face starts at its smallest index, faces sorted)."""
+        used, faces = np.unique(tri, return_inverse=True)
+        faces = faces.reshape(-1, 3).astype(np.int64)
+        shift = np.argmin(faces, axis=1)
+        faces = faces[np.arange(len(faces))[:, None], (shift[:, None] + np.arange(3)) % 3]
+        order = np.lexsort(faces.T[::-1])
+        mesh = cls(
+            vertices=samples[used],
+            faces=faces[order],
+            facet_centres=centres[order],
+            unresolved=unresolved,
+        )
+        mesh.stats.update(vertices=len(used), faces=len(faces))
+        return mesh
 
     @property
     def topology_certified(self) -> bool:
@@ -142,7 +163,7 @@ class SurfaceMesh:
         """Write a shaded picture of the mesh (PNG by extension) with headless matplotlib.
 
         ``size`` is the width and height in pixels. Needs matplotlib
-        (``pip install 'rdmesh[render]'``); see :func:`rdmesh.render.render`.
+        (``pip install 'rdmesh[render]'``); see :func:`rdmesh.io.render.render`.
         """
         from .render import render
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .oracles import ImplicitSurface
+from .oracle import ImplicitSurface
 
 
 def _xyz(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

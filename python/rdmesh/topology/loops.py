@@ -42,6 +42,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._newton import damped_step
+from .._tol import (
+    DIRECTION_EPS,
+    LOOP_F_TOL,
+    LOOP_G_TOL,
+    LOOP_SINGULAR,
+    LOOP_STEP,
+    POLYGON_EPS,
+    TINY,
+)
 from .complex import ComplexStatus
 
 #: Newton iterations per seed (seeds leave early when they converge or stray).
@@ -226,8 +236,8 @@ def _end_slopes(ga, gb, e2):
     """``<grad f, e2>`` at the crossings ``a`` and ``b``, and its cosine with
     the gradient (how closely the arc follows the chord there)."""
     sa, sb = np.einsum("ij,ij->i", ga, e2), np.einsum("ij,ij->i", gb, e2)
-    ca = np.abs(sa) / np.maximum(np.linalg.norm(ga, axis=1), 1e-300)
-    cb = np.abs(sb) / np.maximum(np.linalg.norm(gb, axis=1), 1e-300)
+    ca = np.abs(sa) / np.maximum(np.linalg.norm(ga, axis=1), TINY)
+    cb = np.abs(sb) / np.maximum(np.linalg.norm(gb, axis=1), TINY)
     return sa, sb, ca, cb
 
 
@@ -246,7 +256,7 @@ def _screen(vertices, edges, a, b, ga, gb):
     e1 = b - a
     e1 -= np.einsum("ij,ij->i", e1, nrm)[:, None] * nrm
     length = np.linalg.norm(e1, axis=1)
-    e2 = np.cross(nrm, e1 / np.maximum(length, 1e-300)[:, None])
+    e2 = np.cross(nrm, e1 / np.maximum(length, TINY)[:, None])
     sa, sb, ca, cb = _end_slopes(ga, gb, e2)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = sa / (sa - sb)
@@ -263,7 +273,7 @@ def _probe_edges(vertices, probes, tree):
     tree = tree or cKDTree(vertices)
     d, idx = tree.query(probes.points, k=2)
     p, q = vertices[idx[:, 0]], vertices[idx[:, 1]]
-    gap = (d[:, 1] ** 2 - d[:, 0] ** 2) / (2 * np.maximum(np.linalg.norm(q - p, axis=1), 1e-300))
+    gap = (d[:, 1] ** 2 - d[:, 0] ** 2) / (2 * np.maximum(np.linalg.norm(q - p, axis=1), TINY))
     near = np.flatnonzero(gap < probes.spacing)
     if near.size == 0:
         return np.zeros((0, 2), np.int64), np.zeros((0, 3))
@@ -301,7 +311,7 @@ def _test(surface, vertices, edges, is2, a, b, ga, gb, off, pts, fresh, seeds):
     l1 = np.linalg.norm(e1, axis=1)
     helper = np.where(np.abs(nrm[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
     alt = np.cross(nrm, helper)
-    e1 = np.where((l1 > 1e-12 * diam)[:, None], e1, alt)
+    e1 = np.where((l1 > DIRECTION_EPS * diam)[:, None], e1, alt)
     e1 /= np.linalg.norm(e1, axis=1)[:, None]
     e2 = np.cross(nrm, e1)
     # The arc's direction along the chord is sign(<grad f, e2>) (the tangent
@@ -358,7 +368,7 @@ def _newton(surface, x, row, nrm, e1, e2, centroid, diam):
         if len(x) == 0:
             break
         u, v, n_ = e1[row], e2[row], nrm[row]
-        h = 1e-4 * diam[row]
+        h = LOOP_STEP * diam[row]
         f = surface(x)
         g3 = surface.grad(np.concatenate([x, x + h[:, None] * u, x + h[:, None] * v]))
         g3 = g3.reshape(3, len(x), 3)
@@ -366,9 +376,9 @@ def _newton(surface, x, row, nrm, e1, e2, centroid, diam):
         g1 = np.einsum("ij,ij->i", g, u)
         g2 = np.einsum("ij,ij->i", g, v)
         gn = np.maximum(
-            np.linalg.norm(g - np.einsum("ij,ij->i", g, n_)[:, None] * n_, axis=1), 1e-300
+            np.linalg.norm(g - np.einsum("ij,ij->i", g, n_)[:, None] * n_, axis=1), TINY
         )
-        ok = (np.abs(f) <= 1e-7 * diam[row] * gn) & (np.abs(g2) <= 1e-6 * gn)
+        ok = (np.abs(f) <= LOOP_F_TOL * diam[row] * gn) & (np.abs(g2) <= LOOP_G_TOL * gn)
         if ok.any():
             done_r.append(row[ok])
             done_x.append(x[ok])
@@ -380,17 +390,14 @@ def _newton(surface, x, row, nrm, e1, e2, centroid, diam):
         j11, j12 = g1, g2
         det = j11 * j22 - j12 * j21
         scale = np.abs(j11 * j22) + np.abs(j12 * j21)
-        solvable = np.abs(det) > 1e-12 * np.maximum(scale, 1e-300)
+        solvable = np.abs(det) > LOOP_SINGULAR * np.maximum(scale, TINY)
         det = np.where(solvable, det, 1.0)
         ds = -(j22 * f - j12 * g2) / det
         dt = -(-j21 * f + j11 * g2) / det
         step = ds[:, None] * u + dt[:, None] * v
-        length = np.linalg.norm(step, axis=1)
+        x, length = damped_step(x, step, 0.25 * diam[row])
         # A full step beyond the polygon's size: no solution near this seed.
         solvable &= length <= STRAY * diam[row]
-        cap = 0.25 * diam[row]
-        step *= np.minimum(1.0, cap / np.maximum(length, 1e-300))[:, None]
-        x = x + step
         # Stray seeds leave: far outside their polygon, or no step.
         stay = ~ok & solvable & (np.linalg.norm(x - centroid[row], axis=1) <= 0.5 * diam[row])
         x, row = x[stay], row[stay]
@@ -413,8 +420,8 @@ def _in_polygon(x, row, sub_off, poly, nrm, diam):
     n_ = nrm[row][which]
     side = np.einsum("ij,ij->i", np.cross(v1 - v0, x[which] - v0), n_)
     edge_len = np.linalg.norm(v1 - v0, axis=1)
-    dist = side / np.maximum(edge_len, 1e-300)
-    eps = 1e-9 * diam[row][which]
+    dist = side / np.maximum(edge_len, TINY)
+    eps = POLYGON_EPS * diam[row][which]
     real = edge_len > eps
     not_pos = np.bincount(which, weights=(dist <= eps) & real, minlength=len(x))
     not_neg = np.bincount(which, weights=(dist >= -eps) & real, minlength=len(x))

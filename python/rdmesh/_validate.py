@@ -1,0 +1,67 @@
+"""Checks of user input: each raises ValueError naming the parameter and the value."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+
+def choice(name: str, value: Any, options: Iterable[str]) -> str:
+    """``value`` if it is one of ``options``."""
+    options = tuple(options)
+    if not isinstance(value, str) or value not in options:
+        raise ValueError(f"unknown {name} {value!r}; use one of {', '.join(options)}")
+    return value
+
+
+def integer(name: str, value: Any, lo: int | None = None, hi: int | None = None) -> int:
+    """``value`` as an int, if it is a whole number (not a bool) in ``[lo, hi]``."""
+    ok = isinstance(value, (int, np.integer, float, np.floating)) and not isinstance(value, bool)
+    if ok:
+        ok = math.isfinite(value) and int(value) == value
+    if ok:
+        ok = (lo is None or value >= lo) and (hi is None or value <= hi)
+    if not ok:
+        if lo is not None and hi is not None:
+            what = f"an integer in [{lo}, {hi}]"
+        elif lo == 1:
+            what = "a positive integer"
+        else:
+            what = "an integer"
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+    return int(value)
+
+
+def positive(name: str, value: Any, unit: str = "") -> float:
+    """``value`` as a float, if it is finite and positive."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if isinstance(value, bool) or not math.isfinite(v) or v <= 0:
+        raise ValueError(f"{name} must be a positive number{unit}, got {value!r}")
+    return v
+
+
+def sphere(bounding_sphere: Any) -> tuple[np.ndarray, float]:
+    """``(centre (3,), radius)`` of a bounding sphere given as a pair."""
+    try:
+        centre, radius = bounding_sphere
+    except (TypeError, ValueError):
+        raise ValueError("bounding_sphere must be a pair (centre, radius)") from None
+    try:
+        c = np.asarray(centre, dtype=float)
+    except (TypeError, ValueError):
+        c = np.full(0, np.nan)
+    if c.shape != (3,) or not np.all(np.isfinite(c)):
+        raise ValueError(f"bounding sphere centre must be 3 finite numbers, got {centre!r}")
+    try:
+        r = float(radius)
+    except (TypeError, ValueError):
+        raise ValueError(f"bounding sphere radius must be a number, got {radius!r}") from None
+    if not np.isfinite(r) or r <= 0:
+        raise ValueError(f"bounding sphere radius must be positive and finite, got {radius!r}")
+    return c, r

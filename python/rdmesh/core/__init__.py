@@ -1,0 +1,37 @@
+"""The restricted Delaunay core: CGAL's 3D Delaunay triangulation in C++.
+
+A thin wrapper over the extension ``_rdt`` (see ``_rdt.pyi`` for its
+signatures): the triangulation with per-facet restricted flags and surface
+centres, batch insertion, the facets whose dual changed in each round with
+their dual segments sampled, Voronoi facets, and the greedy independent set
+of balls that makes a batch a valid sequential run.
+
+Facet flag bits (set by Python, kept by the core per facet):
+``RESTRICTED`` (the dual meets the surface), ``BAD`` (fails a criterion),
+``OUTWARD`` (outside lies along the dual segment's direction), ``TOPO`` (the
+dual crosses several times or tangentially).
+"""
+
+from ._rdt import (
+    BAD,
+    CGAL_VERSION,
+    OUTWARD,
+    RESTRICTED,
+    TOPO,
+    RestrictedDelaunay,
+    sample_segments,
+    select_independent,
+    trim_heap,
+)
+
+__all__ = [
+    "BAD",
+    "CGAL_VERSION",
+    "OUTWARD",
+    "RESTRICTED",
+    "TOPO",
+    "RestrictedDelaunay",
+    "sample_segments",
+    "select_independent",
+    "trim_heap",
+]

@@ -1,0 +1,151 @@
+"""The facet pipeline: changed facets -> crossings and criteria -> flags in the core.
+
+After each insertion the core reports the facets whose dual changed, in
+chunks, with each dual segment already sampled. While Python evaluates one
+chunk (``f`` once at the chunk's Voronoi vertices, once at its samples), a
+background thread, with the GIL released, hands the previous chunk's flags to
+the core and computes the next chunk, so both cores work. The thread runs its
+jobs in order, as the core requires.
+
+A failure or a Ctrl-C in the middle of a round cancels the core jobs not yet
+started and waits for the running one, even through further Ctrl-Cs, so that
+nothing touches the core from two threads and the round can be restarted.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import Future, ThreadPoolExecutor, wait
+
+import numpy as np
+
+from .. import core
+from ..surfaces.oracle import ImplicitSurface
+from .criteria import FacetCriteria
+from .facets import SAMPLING, DualSamples, evaluate_facets
+from .timing import PhaseTimer
+
+#: Facets per chunk from the core, and per evaluation slice: bound the memory
+#: of a round's temporaries (32k: 8 % less peak memory than 64k on the sphere
+#: at 89k samples; each chunk costs a call of find_root, about 3.5 ms).
+CORE_CHUNK = 1 << 15
+CHUNK = 1 << 15
+#: A small first chunk: Python waits for it with nothing to overlap.
+FIRST_CHUNK = 1 << 13
+
+
+class FacetPipeline:
+    """Evaluates the facets whose dual changed and stores their flags in the core.
+
+    Parameters
+    ----------
+    rdt : the core.
+    surface : ImplicitSurface
+    criteria : FacetCriteria
+    workers : threads that evaluate slices of a chunk at once.
+    timer : where the phases' times go.
+    """
+
+    def __init__(
+        self,
+        rdt: core.RestrictedDelaunay,
+        surface: ImplicitSurface,
+        criteria: FacetCriteria,
+        workers: int,
+        timer: PhaseTimer,
+    ) -> None:
+        self.rdt = rdt
+        self.surface = surface
+        self.criteria = criteria
+        self.workers = workers
+        self.timer = timer
+        #: Facets evaluated so far.
+        self.evaluated = 0
+        self._worker = ThreadPoolExecutor(1, thread_name_prefix="rdmesh-core")
+        self._jobs: list[Future] = []
+
+    def update(self, vertices: np.ndarray) -> None:
+        """Evaluate every facet whose dual changed since the last update.
+
+        ``vertices`` are the samples, indexed by the core's vertex ids. On any
+        exception the core's pending jobs are settled before it propagates.
+        """
+        try:
+            self._update(vertices)
+        except BaseException:
+            self._settle()
+            raise
+
+    def close(self) -> None:
+        """Settle the core's jobs and stop the worker thread."""
+        self._settle()
+        self._worker.shutdown(wait=False)
+
+    def _submit(self, fn, *args, **kwargs) -> Future:
+        job = self._worker.submit(fn, *args, **kwargs)
+        self._jobs.append(job)
+        return job
+
+    def _settle(self) -> None:
+        """Cancel the core jobs not started and wait for the running one, through Ctrl-C."""
+        for job in self._jobs:
+            job.cancel()
+        while True:
+            try:
+                wait(self._jobs)
+                break
+            except KeyboardInterrupt:
+                continue  # the exception already propagating says "interrupted"
+        self._jobs.clear()
+
+    def _update(self, vertices: np.ndarray) -> None:
+        rdt, timed = self.rdt, self.timer
+        updates = []
+        job = self._submit(rdt.changed_facets, FIRST_CHUNK, **SAMPLING)
+        while True:
+            with timed("changed_facets"):
+                tri, seg, end_index, ends, rho, samples = job.result()
+            if len(tri) == 0:
+                break
+            job = self._submit(rdt.changed_facets, CORE_CHUNK, **SAMPLING)
+            with timed("evaluate"):
+                end_f = self.surface(ends)[end_index]
+                flags, centres = self._flags(vertices, tri, seg, end_f, rho, DualSamples(*samples))
+            updates.append(self._submit(rdt.update_facets, flags, centres))
+            self.evaluated += len(tri)
+        with timed("update_facets"):
+            for u in updates:
+                u.result()  # re-raises a failure
+        self._jobs.clear()
+
+    def _flags(self, vertices, tri, seg, end_f, rho, samples):
+        """Flags (restricted, bad, topology, outward) and surface centres of a chunk."""
+        k = len(tri)
+        flags = np.zeros(k, np.uint8)
+        centres = np.zeros((k, 3))
+
+        def work(sl: slice) -> None:
+            t = tri[sl]
+            ev = evaluate_facets(
+                self.surface, vertices[t[:, 0]], seg[sl], rho[sl], end_f[sl], samples.take(sl)
+            )
+            r = ev.restricted
+            bad = np.zeros(len(t), bool)
+            bad[r] = self.criteria.bad(vertices[t[r]], ev.centre[r], ev.radius[r])
+            topo = r & ((ev.n_cross >= 2) | ev.tangential)
+            flags[sl] = (
+                (r * core.RESTRICTED)
+                | (bad * core.BAD)
+                | (topo * core.TOPO)
+                | ((r & ev.outward) * core.OUTWARD)
+            )
+            centres[sl] = ev.centre
+
+        step = CHUNK if self.workers == 1 else -(-k // self.workers)
+        slices = [slice(i, min(i + step, k)) for i in range(0, k, step)]
+        if self.workers > 1 and len(slices) > 1:
+            with ThreadPoolExecutor(self.workers) as pool:
+                list(pool.map(work, slices))
+        else:
+            for sl in slices:
+                work(sl)
+        return flags, centres

@@ -1,0 +1,106 @@
+"""Refinement stages, after CGAL's Mesher_level: each knows its elements, its
+test and its refinement points.
+
+A stage looks at a round's :class:`~rdmesh.topology.Snapshot` and returns
+:class:`Candidates`: the centres and radii of the empty surface balls whose
+centres would repair what it found, the number of elements that fail, and
+whether the points are driven by the criteria or only by topology (which
+decides the spacing floor they stop at). A method is an ordered list of
+phases, each an ordered list of stages (:mod:`rdmesh.refine.methods`); the
+mesher asks the stages of the current phase in order and inserts the points
+of the first one that has any above the floor.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from .. import core
+from ..sampling.probes import Probes
+from ..topology import Snapshot
+
+
+@dataclass
+class Candidates:
+    """Refinement points proposed by one stage.
+
+    Attributes
+    ----------
+    stage : str
+        The stage's name (progress, ``stats["inserted"]``).
+    centres : (k, 3) centres of empty balls, on the surface.
+    radii : (k,) their radii.
+    topological : bool or (k,) bool
+        True where a point is driven only by topology, not by the criteria:
+        it stops at the topology floor rather than the numerical one.
+    violations : int
+        How many elements fail the stage's test.
+    """
+
+    stage: str
+    centres: np.ndarray
+    radii: np.ndarray
+    topological: bool | np.ndarray
+    violations: int = 0
+    #: Where elements fail without a refinement point, ``(m, 3)``.
+    stuck: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    def __len__(self) -> int:
+        return len(self.centres)
+
+    def take(self, keep: np.ndarray) -> Candidates:
+        """The candidates where ``keep`` is True."""
+        topo = np.broadcast_to(self.topological, len(self.centres))[keep]
+        return Candidates(self.stage, self.centres[keep], self.radii[keep], topo, self.violations)
+
+
+class Stage(Protocol):
+    """One level of refinement."""
+
+    name: str
+
+    def candidates(self, snap: Snapshot) -> Candidates:
+        """The points this stage would insert on the snapshot's samples."""
+        ...
+
+
+@dataclass(frozen=True)
+class FacetStage:
+    """Restricted facets carrying any of the core's flag bits ``mask``.
+
+    ``topological`` says which facets are driven only by topology: all
+    (True), none (False), or those without the ``BAD`` flag (``"unless-bad"``:
+    a facet both bad by the criteria and crossed badly is criteria-driven).
+    """
+
+    name: str
+    mask: int
+    topological: bool | str
+
+    def candidates(self, snap: Snapshot) -> Candidates:
+        _, centres, flags = snap.facets(self.mask)
+        topo = self.topological
+        if topo == "unless-bad":
+            topo = (flags & core.BAD) == 0
+        return Candidates(self.name, centres, snap.radii(self.mask), topo, len(centres))
+
+
+@dataclass(frozen=True)
+class TestStage:
+    """A topology test (:mod:`rdmesh.topology.tests`); its points are topology-driven."""
+
+    name: str
+    test: str
+    allow_boundary: bool = False
+    probes: Probes | None = None
+    angle: float = 90.0
+
+    def candidates(self, snap: Snapshot) -> Candidates:
+        v = snap.test(self.test, allow_boundary=self.allow_boundary, probes=self.probes,
+                      angle=self.angle)  # fmt: skip
+        if v is None:
+            return Candidates(self.name, np.zeros((0, 3)), np.zeros(0), True)
+        return Candidates(self.name, v.centres, v.radii, True, v.count)

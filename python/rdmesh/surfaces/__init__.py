@@ -1,0 +1,36 @@
+"""Surface oracles: the vectorised ``f``, expressions, and the built-in test surfaces.
+
+``rdmesh.surfaces.torus()``, ``rdmesh.surfaces.get("tanglecube")`` and
+``rdmesh.surfaces.SURFACES`` give the built-in surfaces, each with an exact
+gradient; :class:`ImplicitSurface` wraps any vectorised function.
+"""
+
+from .builtin import (
+    SURFACES,
+    SurfaceInfo,
+    blob_line,
+    double_torus,
+    ellipsoid,
+    get,
+    sphere,
+    tanglecube,
+    thin_torus,
+    torus,
+    two_spheres,
+)
+from .oracle import ImplicitSurface
+
+__all__ = [
+    "SURFACES",
+    "ImplicitSurface",
+    "SurfaceInfo",
+    "blob_line",
+    "double_torus",
+    "ellipsoid",
+    "get",
+    "sphere",
+    "tanglecube",
+    "thin_torus",
+    "torus",
+    "two_spheres",
+]

@@ -1,0 +1,215 @@
+"""The topology report: what each test found on the final samples, and in words.
+
+Each test has a ``basis``: ``exact`` (combinatorial, on the restricted
+complex), ``exact given voronoi_edge``, or ``sampled`` (resting on samples of
+the surface: a missed feature is possible). The ``statement`` separates what
+holds exactly from what rests on sampling.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .._tol import REGION_LINK
+from ..sampling.critical import CriticalPoints
+from ..sampling.probes import Probes
+from .complex import euler_characteristics
+from .regions import describe_regions, regions
+from .singular import singular_points
+from .snapshot import Snapshot
+from .tests import TESTS
+
+_BASIS = {
+    "voronoi_edge": (
+        "sampled",
+        "each restricted facet's dual Voronoi edge meets the surface once, transversally; "
+        "crossings are found by sampling the edge at the surface-ball spacing plus a "
+        "search of |f| dips, not by interval arithmetic",
+    ),
+    "voronoi_facet": (
+        "exact given voronoi_edge",
+        "every Voronoi facet's boundary crosses the surface 0 or 2 times (every complex "
+        "edge has exactly 2 restricted triangles); what lies inside a facet is the "
+        "voronoi_loop test's",
+    ),
+    "voronoi_loop": (
+        "sampled",
+        "no Voronoi facet meets the surface in a closed loop or in an arc that turns back "
+        "along its chord: damped Newton on {f = 0, <grad f, e2> = 0} in the facet plane "
+        "from a few seeds per facet (a loop or fold missed by every seed is not seen). "
+        "Facets of complex edges (2 crossings a, b): a fold is also seen when the arc runs "
+        "backwards along the chord at one crossing; a facet whose arc leaves both crossings "
+        "within 60 degrees of the chord, in the same direction, with no turn predicted "
+        "within one chord length of the chord's midpoint by the gradients at a and b "
+        "(linearly interpolated), gets no seed; otherwise the seeds are that predicted turn "
+        "(when inside the polygon) and, when the arc leaves a crossing at more than 60 "
+        "degrees from the chord, the chord's quarter points and the polygon's centroid. "
+        "Facets without crossings are tested only where a probe lies within the probe "
+        "spacing of them (seeds: that probe and the centroid); without probes, not at all",
+    ),
+    "disk": (
+        "exact",
+        "the restricted triangles around every sample form one disk (one fan)",
+    ),
+    "isolated": ("exact", "every sample has restricted triangles"),
+    "silhouette": (
+        "sampled",
+        "no probe in a Voronoi cell V_p has a normal at 90 degrees or more from the normal "
+        "at p; probes sample the surface, so features smaller than their spacing can hide",
+    ),
+}
+
+
+def topology_report(
+    snap: Snapshot,
+    *,
+    method: str,
+    probes: Probes | None,
+    faces: np.ndarray,
+    n_mesh_vertices: int,
+    repaired: dict[str, int],
+    unresolved: np.ndarray,
+    complete: bool,
+    critical: CriticalPoints | None = None,
+    floor: dict | float | None = None,
+) -> dict[str, Any]:
+    """The topology report of a finished run (see :attr:`SurfaceMesh.report`).
+
+    Every test is evaluated on ``snap``, the final samples, at the report's
+    settings (silhouette at 90 degrees, no boundary allowed); outcomes the
+    refinement loop already computed on that snapshot are reused. ``faces``
+    is the output mesh (restricted facets), for components and Euler
+    characteristics.
+    """
+    tests: dict[str, dict[str, Any]] = {}
+    where = []
+    surface = snap.surface
+    for kind in TESTS:
+        v = snap.test(kind, probes=probes)
+        if v is None:
+            continue
+        basis, what = _BASIS[v.kind]
+        tests[v.kind] = {
+            "held": v.count == 0,
+            "violations": v.count,
+            "repaired": int(repaired.get(v.kind, 0)),
+            "basis": basis,
+            "tests": what,
+        }
+        where.append(v.centres)
+    for kind in ("voronoi_loop", "silhouette"):
+        if kind not in tests:
+            tests[kind] = {
+                "held": None,
+                "violations": None,
+                "repaired": 0,
+                "basis": "not tested",
+                "tests": _BASIS[kind][1],
+            }
+    tests = {k: tests[k] for k in TESTS}
+    chi = euler_characteristics(faces, n_mesh_vertices)
+    # The output faces are the restricted facets: every edge in two faces is
+    # the Voronoi-facet test, one fan per vertex is the disk test.
+    closed = bool(len(faces) and tests["voronoi_facet"]["held"] and tests["disk"]["held"])
+    link = REGION_LINK * surface.radius
+    unresolved_regions = regions(unresolved, link)
+    violation_regions = regions(np.concatenate(where) if where else np.zeros((0, 3)), link)
+    singular = singular_points(surface, probes) if probes is not None else np.zeros((0, 3))
+    all_held = all(t["held"] is True for t in tests.values())
+    holds = bool(
+        all_held and complete and len(unresolved) == 0 and len(faces) > 0 and len(singular) == 0
+    )
+    report: dict[str, Any] = {
+        "method": method,
+        "tbp_holds": holds,
+        "tests": tests,
+        "components": len(chi),
+        "euler": chi,
+        "closed_manifold": closed,
+        "complete": complete,
+        "unresolved": len(unresolved),
+        "unresolved_regions": unresolved_regions,
+        "violation_regions": violation_regions,
+        "singular_points": {
+            "count": len(singular),
+            "regions": regions(singular, link),
+            "basis": "sampled (Newton on grad f = 0 from the probes)",
+        },
+        "probes": None
+        if probes is None
+        else {"count": len(probes.points), "spacing": float(probes.spacing)},
+        "spacing_floor": floor,
+        "critical_points": None,
+    }
+    if critical is not None:
+        morse = critical.euler
+        report["critical_points"] = {
+            "direction": [float(v) for v in critical.direction],
+            "count": len(critical.points),
+            "saddles": int(critical.saddle.sum()),
+            "degenerate": int(critical.degenerate.sum()),
+            "morse_euler": morse,
+            "agrees_with_mesh": bool(morse == sum(chi)) and not critical.degenerate.any(),
+        }
+    report["statement"] = _statement(report)
+    return report
+
+
+def _statement(rep: dict[str, Any]) -> str:
+    """Plain wording of what the report certifies and what rests on sampling."""
+    tests = rep["tests"]
+    failed = [k for k, t in tests.items() if t["held"] is False]
+    untested = [k for k, t in tests.items() if t["held"] is None]
+    spacing = rep["probes"]["spacing"] if rep["probes"] else None
+    probe_text = (
+        f"probes on the surface at spacing about {spacing:.3g}" if spacing else "no probes"
+    )
+    lines = []
+    if rep["tbp_holds"]:
+        lines.append(
+            "Every topological-ball test held on the final samples, so the mesh is "
+            "homeomorphic to the surface provided the sampled tests are right: "
+            "exact (combinatorial): every complex edge has 2 triangles (Voronoi-facet "
+            "crossing count), every sample has one disk of triangles, no sample lacks "
+            "triangles; sampled: one transversal crossing per Voronoi edge (edge "
+            f"sampling plus dip search, no interval arithmetic), no closed loop or folded "
+            "arc inside a Voronoi facet (damped Newton from a few seeds per facet; facets "
+            "without boundary crossings only where a probe is near them), no silhouette "
+            f"point in any Voronoi cell ({probe_text}). Features smaller than the probe "
+            "spacing, and loops no seed leads to, can be missed."
+        )
+    else:
+        why = []
+        if failed:
+            why.append("tests failed: " + ", ".join(failed))
+        if untested:
+            why.append("not tested: " + ", ".join(untested))
+        if rep["unresolved"]:
+            why.append(
+                f"{rep['unresolved']} refinement points were below the spacing floor "
+                f"({describe_regions(rep['unresolved_regions'])}); the surface may be "
+                "singular or nearly singular there"
+            )
+        if rep["singular_points"]["count"]:
+            why.append(
+                "the gradient of f vanishes on the surface "
+                + describe_regions(rep["singular_points"]["regions"])
+                + ": the surface is singular there and no sampling certifies its topology"
+            )
+        if not rep["complete"]:
+            why.append("the run stopped early (budget)")
+        if not rep["components"]:
+            why.append("the mesh is empty")
+        lines.append("The topology is NOT certified: " + "; ".join(why) + ".")
+        if rep["violation_regions"]:
+            lines.append("Violations " + describe_regions(rep["violation_regions"]) + ".")
+    cp = rep.get("critical_points")
+    if cp is not None and not cp["agrees_with_mesh"]:
+        lines.append(
+            f"The critical points found (Morse count {cp['morse_euler']}) disagree with the "
+            f"mesh's Euler characteristic {sum(rep['euler'])}: either a critical point was "
+            "missed or degenerate, or the topology is wrong."
+        )
+    return " ".join(lines)

@@ -1,0 +1,133 @@
+"""The restricted Delaunay triangulation at one moment, as the tests see it.
+
+A :class:`Snapshot` is taken once per refinement round (and for the report).
+Everything the stages and tests derive from the restricted facets (ball
+radii, the complex's edge and fan counts, the KD-tree of the samples, the
+normals at the samples, and each test's outcome) is computed at most once per
+snapshot, so that stages asked one after the other, and a report on the last
+round's samples, share the work.
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .. import core
+from ..sampling.probes import Probes, unit_normals
+from ..surfaces.oracle import ImplicitSurface
+from .complex import ComplexStatus, complex_status
+from .loops import LoopMemo
+from .tests import (
+    SILHOUETTE_ANGLE,
+    Violations,
+    disk_test,
+    isolated_test,
+    silhouette_test,
+    voronoi_edge_test,
+    voronoi_facet_test,
+    voronoi_loop_test,
+)
+
+
+class Snapshot:
+    """The samples and restricted facets of a core, with derived data computed once.
+
+    Parameters
+    ----------
+    surface : ImplicitSurface
+    rdt : the core (:class:`rdmesh.core.RestrictedDelaunay`); not changed.
+    vertices : (n, 3) the samples, indexed by the core's vertex ids.
+    memo : LoopMemo, optional
+        Facets the loop test found clean in earlier rounds (kept across rounds).
+    """
+
+    def __init__(
+        self,
+        surface: ImplicitSurface,
+        rdt: core.RestrictedDelaunay,
+        vertices: np.ndarray,
+        memo: LoopMemo | None = None,
+    ) -> None:
+        self.surface = surface
+        self.rdt = rdt
+        self.vertices = vertices
+        self.memo = memo if memo is not None else LoopMemo()
+        self._facets: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._radii: dict[int, np.ndarray] = {}
+        self._tests: dict[tuple, Violations | None] = {}
+
+    def facets(self, mask: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Restricted facets having any bit of ``mask`` (all when 0): ``(tri, centres, flags)``."""
+        if mask not in self._facets:
+            self._facets[mask] = self.rdt.facets(mask)
+        return self._facets[mask]
+
+    def radii(self, mask: int = 0) -> np.ndarray:
+        """Surface Delaunay ball radii of :meth:`facets` ``(mask)``."""
+        if mask not in self._radii:
+            tri, centres, _ = self.facets(mask)
+            self._radii[mask] = np.linalg.norm(centres - self.vertices[tri[:, 0]], axis=1)
+        return self._radii[mask]
+
+    @cached_property
+    def status(self) -> ComplexStatus:
+        """Edge and fan counts of the restricted complex."""
+        return complex_status(self.facets(0)[0], len(self.vertices))
+
+    @cached_property
+    def tree(self) -> cKDTree:
+        """KD-tree of the samples: nearest sample = Voronoi cell membership."""
+        return cKDTree(self.vertices)
+
+    @cached_property
+    def normals(self) -> np.ndarray:
+        """Unit normals at the samples."""
+        return unit_normals(self.surface, self.vertices)
+
+    def test(
+        self,
+        kind: str,
+        *,
+        allow_boundary: bool = False,
+        probes: Probes | None = None,
+        angle: float = SILHOUETTE_ANGLE,
+    ) -> Violations | None:
+        """The outcome of one topology test (:mod:`rdmesh.topology.tests`).
+
+        ``allow_boundary`` applies to ``voronoi_facet``; ``probes`` to
+        ``voronoi_loop`` and ``silhouette``, ``angle`` to ``silhouette``.
+        None when the test cannot run (silhouette without probes).
+        """
+        key = (
+            kind,
+            allow_boundary if kind == "voronoi_facet" else None,
+            id(probes) if kind in ("voronoi_loop", "silhouette") else None,
+            angle if kind == "silhouette" else None,
+        )
+        if key not in self._tests:
+            self._tests[key] = self._run(kind, allow_boundary, probes, angle)
+        return self._tests[key]
+
+    def _run(self, kind, allow_boundary, probes, angle) -> Violations | None:
+        tri, centres, flags = self.facets(0)
+        if kind == "voronoi_edge":
+            return voronoi_edge_test(tri, centres, self.radii(0), flags, core.TOPO)
+        if kind == "voronoi_facet":
+            return voronoi_facet_test(self.status, centres, self.radii(0), allow_boundary)
+        if kind == "disk":
+            return disk_test(self.status, tri, centres, self.radii(0))
+        if kind == "voronoi_loop":
+            return voronoi_loop_test(
+                self.surface, self.rdt, self.vertices, tri, centres, self.status,
+                probes, self.tree, self.memo,
+            )  # fmt: skip
+        if kind == "isolated":
+            return isolated_test(self.surface, self.vertices, tri, self.tree)
+        if kind == "silhouette":
+            if probes is None:
+                return None
+            return silhouette_test(probes, self.vertices, self.normals, angle, self.tree)
+        raise ValueError(f"unknown topology test {kind!r}")
