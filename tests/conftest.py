@@ -7,12 +7,17 @@ topology assertions are claims the library makes, not luck.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
 import pytest
 import rdmesh
 from rdmesh.surfaces import SURFACES
+
+# Debug mode: every round of every run below 50k samples checks the core's
+# bookkeeping and that each surface Delaunay ball is empty (subprocesses inherit it).
+os.environ.setdefault("RDMESH_CHECK", "1")
 
 #: (name, radius_bound): lfs is 1 (sphere), 0.4 (torus), ~1 (tanglecube),
 #: 0.05 at the gap (two spheres), ~0.5 (blob line), 1/6 (ellipsoid),

@@ -88,7 +88,7 @@ def test_render_size_and_title(sphere_case, tmp_path):
 
 
 def test_empty_mesh_gives_a_picture(tmp_path):
-    from rdmesh.render import render
+    from rdmesh.io.render import render
 
     path = tmp_path / "empty.png"
     render(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), path, size=64)
@@ -107,7 +107,7 @@ def test_empty_mesh_gives_a_picture(tmp_path):
     ],
 )
 def test_bad_render_arguments(kwargs, match, tmp_path):
-    from rdmesh.render import render
+    from rdmesh.io.render import render
 
     args = {"vertices": np.eye(3), "faces": np.array([[0, 1, 2]]), "size": 64} | kwargs
     with pytest.raises(ValueError, match=match):
@@ -119,7 +119,7 @@ def test_render_is_headless_and_leaves_pyplot_alone(tmp_path):
     # In a fresh interpreter without a display: no pyplot import, no backend switch.
     code = (
         "import sys, numpy as np\n"
-        "from rdmesh.render import render\n"
+        "from rdmesh.io.render import render\n"
         "render(np.eye(3), np.array([[0, 1, 2]]), sys.argv[1], size=32)\n"
         "print('matplotlib.pyplot' in sys.modules)\n"
     )

@@ -12,9 +12,11 @@ from ._errors import (
     BudgetExceeded,
     CGALError,
     EmptySurfaceError,
+    InternalCheckError,
     Interrupted,
     OracleError,
     RdmeshError,
+    RefinementStalled,
 )
 from .api import mesh_surface
 from .core import CGAL_VERSION
@@ -35,9 +37,11 @@ __all__ = [
     "ExpressionError",
     "FacetCriteria",
     "ImplicitSurface",
+    "InternalCheckError",
     "Interrupted",
     "OracleError",
     "RdmeshError",
+    "RefinementStalled",
     "SurfaceMesh",
     "mesh_surface",
     "surfaces",

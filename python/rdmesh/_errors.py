@@ -46,3 +46,14 @@ class BudgetExceeded(RdmeshError):
 
 class Interrupted(BudgetExceeded):
     """Refinement was interrupted (Ctrl-C); ``.mesh`` holds the partial mesh."""
+
+
+class RefinementStalled(BudgetExceeded):
+    """A refinement batch added no new sample (its points were all existing
+    samples): the run stops instead of repeating it. ``.mesh`` holds the mesh
+    as it stood; ``.reason`` says which stage stalled."""
+
+
+class InternalCheckError(RdmeshError, RuntimeError):
+    """A self-check of the restricted Delaunay bookkeeping failed (debug mode,
+    ``RDMESH_CHECK=1``): a bug in rdmesh, please report it."""

@@ -63,8 +63,10 @@ class ProgressBar:
 
             def display(self, *args, **kwargs):
                 start = getattr(self, "start_t", None)  # unset while tqdm starts
-                if not self.drawn and self.delay > 0 and (
-                    start is None or time.time() - start < self.delay
+                if (
+                    not self.drawn
+                    and self.delay > 0
+                    and (start is None or time.time() - start < self.delay)
                 ):
                     return None
                 self.drawn = True

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import core
+from .._errors import OracleError
 from .._tol import (
     MAX_INTERVALS,
     MIN_INTERVALS,
@@ -21,6 +22,7 @@ from .._tol import (
     SAMPLES_PER_RADIUS,
     TANGENCY_COS,
 )
+from .._vectors import row_norms
 from ..sampling.roots import SegmentSamples, line_crossings
 from ..surfaces.oracle import ImplicitSurface
 
@@ -41,6 +43,7 @@ class FacetEval:
     radius: np.ndarray  # (k,), zeros where not restricted
     outward: np.ndarray  # (k,) bool: outside lies along the segment direction
     tangential: np.ndarray  # (k,) bool
+    failed: int = 0  # segments whose root search failed (see Crossings.failed)
 
     @property
     def restricted(self) -> np.ndarray:
@@ -139,7 +142,33 @@ def evaluate_facets(
     out.radius[rows] = np.linalg.norm(cr.point[pick] - apex[rows], axis=1)
     out.outward[rows] = cr.rising[pick]
     g = surface.grad(cr.point[pick])
-    gn = np.linalg.norm(g, axis=1)
-    cos = np.abs(np.einsum("ij,ij->i", g, u[rows])) / np.where(gn > 0, gn, 1.0)
-    out.tangential[rows] = (gn == 0) | (cos < TANGENCY_COS)
+    # hypot: squaring underflows below 1e-154 and overflows above 1e154, which
+    # made every crossing of a scaled f look tangential.
+    gn = row_norms(g)
+    trusted = np.isfinite(gn) & (gn > 0)
+    _check_gradients(trusted, cr.point[pick])
+    with np.errstate(invalid="ignore", over="ignore"):
+        cos = np.abs(np.einsum("ij,ij->i", g, u[rows])) / np.where(trusted, gn, 1.0)
+    out.tangential[rows] = ~trusted | (cos < TANGENCY_COS)
+    # A sign change whose root search failed: refine there (a Voronoi-edge
+    # violation), never use the bracket as a surface point.
+    out.tangential[cr.failed] |= out.n_cross[cr.failed] > 0
+    out.failed = len(cr.failed)
     return out
+
+
+#: Crossings with a zero or non-finite gradient: a few are singular points of
+#: the surface (refined, then left unresolved at the floor); this many, and at
+#: least this share of a chunk's crossings, mean the gradient is broken.
+UNTRUSTED_MIN, UNTRUSTED_SHARE = 8, 0.5
+
+
+def _check_gradients(trusted: np.ndarray, points: np.ndarray) -> None:
+    bad = np.flatnonzero(~trusted)
+    if len(bad) >= max(UNTRUSTED_MIN, UNTRUSTED_SHARE * len(trusted)):
+        raise OracleError(
+            f"the gradient is zero or not finite at {len(bad)} of {len(trusted)} crossings "
+            f"(e.g. at {np.round(points[bad[0]], 6).tolist()}): the surface's normals cannot "
+            "be trusted (a gradient function that returns zeros, or f constant in steps so "
+            "that central differences vanish); give a correct gradient or a smooth f"
+        )

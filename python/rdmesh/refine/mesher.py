@@ -11,6 +11,7 @@ every stage of the last phase is satisfied, or a budget runs out.
 from __future__ import annotations
 
 import logging
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -18,13 +19,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import core
-from .._errors import BudgetExceeded, Interrupted
+from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._tol import REGION_LINK
 from ..io.result import SurfaceMesh
 from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
 from ..topology.regions import describe_regions, regions
+from .check import check_restricted
 from .criteria import FacetCriteria
 from .floor import SpacingFloor
 from .methods import METHODS, Plan
@@ -34,23 +36,25 @@ from .timing import PhaseTimer
 
 log = logging.getLogger("rdmesh")
 
-#: Safety cap on rounds; smooth inputs need tens.
+#: Safety cap on rounds; smooth inputs need tens. Reaching it ends the run
+#: with the remaining points unresolved, like the spacing floor.
 MAX_ROUNDS = 2000
 
 
 @dataclass
 class Budget:
-    """Limits on a run; None means unlimited."""
+    """The user's limits on a run; None means unlimited."""
 
     max_vertices: int | None = None
     time_limit: float | None = None
-    max_rounds: int = MAX_ROUNDS
 
-    def exceeded(self, rounds: int, vertices: int, seconds: float) -> str | None:
-        """Which budget has run out, in words, or None."""
-        if rounds > self.max_rounds:
-            return f"max_rounds={self.max_rounds} reached"
-        if self.time_limit is not None and seconds > self.time_limit:
+    def exceeded(self, vertices: int, seconds: float, next_round: float = 0.0) -> str | None:
+        """Which budget has run out, in words, or None.
+
+        ``next_round`` is the expected time of another round: a round that
+        would end past the time limit is not started.
+        """
+        if self.time_limit is not None and seconds + next_round > self.time_limit:
             return f"time_limit={self.time_limit:g}s reached"
         if self.max_vertices is not None and vertices >= self.max_vertices:
             return f"max_vertices={self.max_vertices} reached"
@@ -95,6 +99,9 @@ class Mesher:
         self.inserted: dict[str, int] = {}
         self.unresolved: list[np.ndarray] = []
         self._snap: Snapshot | None = None
+        self.stalled = False
+        #: Debug mode: check the bookkeeping every round (small runs only).
+        self.check = os.environ.get("RDMESH_CHECK", "") not in ("", "0")
 
     def run(self) -> SurfaceMesh:
         """Mesh the surface; raises BudgetExceeded or Interrupted with the partial mesh."""
@@ -128,6 +135,8 @@ class Mesher:
             self.pipeline.close()
         if interrupted:
             raise Interrupted("refinement interrupted", mesh=mesh, reason=stop)
+        if self.stalled:
+            raise RefinementStalled(f"refinement stopped: {stop}", mesh=mesh, reason=stop)
         if stop:
             raise BudgetExceeded(f"refinement stopped early: {stop}", mesh=mesh, reason=stop)
         return mesh
@@ -136,15 +145,32 @@ class Mesher:
         """Refinement rounds until nothing is left to refine or a budget runs out."""
         floor = SpacingFloor(self.criteria, self.surface.radius, plan.topology_floor)
         cap = self.budget.max_vertices
+        last_round = 0.0
         while stop is None:
             self.rounds += 1
+            round_start = time.perf_counter()
             self.pipeline.update(self.vertices)
             snap = self.snapshot()
+            if self.check:
+                check_restricted(snap)
             with self.timer("candidates"):
                 found = self._ask(plan, snap, floor)
             if found is None:
                 break
-            stop = self.budget.exceeded(self.rounds, len(self.vertices), time.perf_counter() - t0)
+            if self.rounds > MAX_ROUNDS:
+                # No budget of the user's: end like the spacing floor does.
+                log.warning(
+                    "refinement ended after %d rounds with %d %s points left; they are "
+                    "listed in SurfaceMesh.unresolved",
+                    MAX_ROUNDS, len(found), found.stage,
+                )  # fmt: skip
+                self.unresolved.append(found.centres)
+                break
+            now = time.perf_counter()
+            # Another round as long as the last whole one (or this one so far).
+            stop = self.budget.exceeded(
+                len(self.vertices), now - t0, max(last_round, now - round_start)
+            )
             if stop:
                 break
             with self.timer("select"):
@@ -152,7 +178,14 @@ class Mesher:
             if cap is not None and len(self.vertices) + len(batch) > cap:
                 batch = batch[: max(0, cap - len(self.vertices))]
                 stop = f"max_vertices={cap} reached"
-            self._insert(batch, found.stage)
+            if self._insert(batch, found.stage) == 0 and len(batch):
+                # Repeating the batch would add nothing again (CGAL's "element
+                # survives its own refinement point" error).
+                self.stalled = True
+                stop = (
+                    f"no progress: the {found.stage} stage's {len(batch)} refinement points "
+                    "are all existing samples"
+                )
             log.debug(
                 "round %d: %s stage, %d samples", self.rounds, found.stage, len(self.vertices)
             )
@@ -166,6 +199,7 @@ class Mesher:
                         "seconds": time.perf_counter() - t0,
                     }
                 )
+            last_round = time.perf_counter() - round_start
         if stop:
             self.pipeline.update(self.vertices)
         return stop
@@ -173,7 +207,8 @@ class Mesher:
     def _ask(self, plan: Plan, snap: Snapshot, floor: SpacingFloor) -> Candidates | None:
         """The points of the first stage, in phase order, that has any above the floor.
 
-        Points below the floor go to ``self.unresolved``. A phase whose stages
+        Points below the floor, and failing elements that have no refinement
+        point, go to ``self.unresolved``. A phase whose stages
         are all satisfied gives way to the next one for good.
         """
         unresolved = []
@@ -181,6 +216,8 @@ class Mesher:
             while True:
                 for stage in plan.phases[self.phase]:
                     cand = stage.candidates(snap)
+                    if len(cand.stuck):
+                        unresolved.append(cand.stuck)
                     if len(cand) == 0:
                         continue
                     keep = floor.keep(cand)
@@ -201,7 +238,8 @@ class Mesher:
             self._snap = Snapshot(self.surface, self.rdt, self.vertices, self.memo)
         return self._snap
 
-    def _insert(self, points: np.ndarray, stage: str) -> None:
+    def _insert(self, points: np.ndarray, stage: str) -> int:
+        """Insert points; returns how many were new samples."""
         n0 = len(self.vertices)
         self._snap = None
         with self.timer("insert"):
@@ -215,7 +253,9 @@ class Mesher:
         grown[:n0] = self.vertices
         grown[ids[new]] = points[new]
         self.vertices = grown
-        self.inserted[stage] = self.inserted.get(stage, 0) + int(new.sum())
+        added = int(new.sum())
+        self.inserted[stage] = self.inserted.get(stage, 0) + added
+        return added
 
 
 def _result(m: Mesher, plan: Plan, t0: float, evals0: int, stop: str | None) -> SurfaceMesh:
@@ -264,4 +304,10 @@ def _result(m: Mesher, plan: Plan, t0: float, evals0: int, stop: str | None) -> 
     if stop:
         mesh.complete = False
         mesh.stats["stop_reason"] = stop
+    elif len(mesh.unresolved):
+        mesh.complete = False
+        mesh.stats["stop_reason"] = (
+            f"{len(mesh.unresolved)} points unresolved (below the spacing floor, or "
+            "violations without a refinement point)"
+        )
     return mesh

@@ -19,6 +19,7 @@ from concurrent.futures import Future, ThreadPoolExecutor, wait
 import numpy as np
 
 from .. import core
+from ..sampling.grid import check_sphere_ends
 from ..surfaces.oracle import ImplicitSurface
 from .criteria import FacetCriteria
 from .facets import SAMPLING, DualSamples, evaluate_facets
@@ -60,6 +61,8 @@ class FacetPipeline:
         self.timer = timer
         #: Facets evaluated so far.
         self.evaluated = 0
+        #: Dual segments whose root search failed (never used as surface points).
+        self.failed = 0
         self._worker = ThreadPoolExecutor(1, thread_name_prefix="rdmesh-core")
         self._jobs: list[Future] = []
 
@@ -109,6 +112,7 @@ class FacetPipeline:
             job = self._submit(rdt.changed_facets, CORE_CHUNK, **SAMPLING)
             with timed("evaluate"):
                 end_f = self.surface(ends)[end_index]
+                check_sphere_ends(self.surface, seg, end_f)
                 flags, centres = self._flags(vertices, tri, seg, end_f, rho, DualSamples(*samples))
             updates.append(self._submit(rdt.update_facets, flags, centres))
             self.evaluated += len(tri)
@@ -123,11 +127,14 @@ class FacetPipeline:
         flags = np.zeros(k, np.uint8)
         centres = np.zeros((k, 3))
 
+        failed = []
+
         def work(sl: slice) -> None:
             t = tri[sl]
             ev = evaluate_facets(
                 self.surface, vertices[t[:, 0]], seg[sl], rho[sl], end_f[sl], samples.take(sl)
             )
+            failed.append(ev.failed)
             r = ev.restricted
             bad = np.zeros(len(t), bool)
             bad[r] = self.criteria.bad(vertices[t[r]], ev.centre[r], ev.radius[r])
@@ -148,4 +155,5 @@ class FacetPipeline:
         else:
             for sl in slices:
                 work(sl)
+        self.failed += sum(failed)
         return flags, centres

@@ -103,4 +103,4 @@ class TestStage:
                       angle=self.angle)  # fmt: skip
         if v is None:
             return Candidates(self.name, np.zeros((0, 3)), np.zeros(0), True)
-        return Candidates(self.name, v.centres, v.radii, True, v.count)
+        return Candidates(self.name, v.centres, v.radii, True, v.count, v.stuck)

@@ -24,6 +24,7 @@ from .._tol import (
     ON_SURFACE,
     TINY,
 )
+from .._vectors import row_norms
 from ..surfaces.oracle import ImplicitSurface
 
 log = logging.getLogger("rdmesh")
@@ -116,7 +117,7 @@ def critical_points(
         he1, he2 = _hessian_columns(surface, xi, [e1, e2], h)
         G = np.column_stack([f, g @ e1, g @ e2])
         J = np.stack([g, he1, he2], axis=1)
-        gn = np.linalg.norm(g, axis=1)
+        gn = row_norms(g)
         ok = np.abs(np.linalg.det(J)) > TINY
         step = np.zeros_like(xi)
         step[ok] = np.linalg.solve(J[ok], -G[ok][:, :, None])[:, :, 0]
@@ -132,9 +133,9 @@ def critical_points(
     # Keep genuine solutions on the surface, then de-duplicate.
     f = surface(x)
     g = surface.grad(x)
-    gn = np.linalg.norm(g, axis=1)
+    gn = row_norms(g)
     on = np.abs(f) <= ON_SURFACE * R * gn
-    on &= np.linalg.norm(np.cross(g, d), axis=1) <= CRITICAL_PARALLEL * gn
+    on &= row_norms(np.cross(g, d)) <= CRITICAL_PARALLEL * gn
     x, g = x[on], g[on]
     if len(x) == 0:
         return empty

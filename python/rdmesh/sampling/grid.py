@@ -157,3 +157,34 @@ def grid_scan(
         len(out),
     )
     return GridScan(out, points, h)
+
+
+#: A segment end this close to the bounding sphere (times R) was clipped to it.
+ON_SPHERE = 1e-9
+
+
+def check_sphere_ends(surface: ImplicitSurface, seg: np.ndarray, end_values: np.ndarray) -> None:
+    """Raise BoundingSphereError if ``f <= 0`` where a dual segment was clipped
+    to the bounding sphere.
+
+    Every Voronoi edge that leaves the ball is cut at the sphere, so as
+    refinement goes on these ends sample the sphere ever more densely near the
+    surface: a surface that pokes out of the sphere shows there (sampled, like
+    the grid check of :func:`grid_scan`).
+
+    Parameters
+    ----------
+    seg : (k, 2, 3) clipped dual segments.
+    end_values : (k, 2) ``f`` at their ends.
+    """
+    c0, R = surface.centre, surface.radius
+    d = seg - c0
+    r = np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])
+    bad = (np.abs(r - R) <= ON_SPHERE * R) & (end_values <= 0)
+    if bad.any():
+        where = seg[bad][0]
+        raise BoundingSphereError(
+            f"f <= 0 at {int(bad.sum())} points where Voronoi edges meet the bounding "
+            f"sphere (e.g. {np.round(where, 6).tolist()}): the surface reaches the sphere; "
+            "enlarge the radius, or flip the sign of f if it is negative outside"
+        )

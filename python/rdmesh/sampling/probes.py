@@ -8,6 +8,7 @@ import numpy as np
 
 from .._newton import damped_step
 from .._tol import ON_SURFACE, TINY
+from .._vectors import row_norms, unit_rows
 from ..surfaces.oracle import ImplicitSurface
 
 
@@ -35,9 +36,7 @@ def unit_normals(surface: ImplicitSurface, x: np.ndarray) -> np.ndarray:
     """Unit gradients at ``(n, 3)`` points; zero rows where the gradient is zero."""
     if len(x) == 0:
         return np.zeros((0, 3))
-    g = surface.grad(x)
-    n = np.linalg.norm(g, axis=1)
-    return g / np.where(n > 0, n, np.inf)[:, None]
+    return unit_rows(surface.grad(x))
 
 
 #: Newton projections per probe.
@@ -73,11 +72,11 @@ def surface_probes(
     for _ in range(_PROJECT_STEPS):
         f = surface(x)
         g = surface.grad(x)
-        g2 = np.maximum(np.einsum("ij,ij->i", g, g), TINY)
-        step = -(f / g2)[:, None] * g
+        gn = np.maximum(row_norms(g), TINY)
+        step = -(f / gn)[:, None] * (g / gn[:, None])
         x, _ = damped_step(x, step, spacing)
     f = surface(x)
-    gn = np.linalg.norm(surface.grad(x), axis=1)
+    gn = row_norms(surface.grad(x))
     ok = (np.abs(f) <= ON_SURFACE * R * gn) & (np.linalg.norm(x - x0, axis=1) <= 2.0 * spacing)
     ok &= np.linalg.norm(x - surface.centre, axis=1) < R
     return np.concatenate([crossings, x[ok]])

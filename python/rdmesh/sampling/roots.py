@@ -9,7 +9,7 @@ one vectorised call of :func:`scipy.optimize.elementwise.find_root`
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import elementwise
@@ -40,6 +40,9 @@ class Crossings:
     s: np.ndarray
     point: np.ndarray
     rising: np.ndarray
+    #: Segments with a bracket whose root search did not converge: a sign
+    #: change lies there, but no crossing of it is reported.
+    failed: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     def count(self, n_segments: int) -> np.ndarray:
         """Number of crossings on each of ``n_segments`` segments."""
@@ -91,9 +94,14 @@ def line_crossings(
 ) -> Crossings:
     """Find every sign change of ``f`` along segments ``origin + s * direction``.
 
-    Besides the sign changes between samples, a sample where ``|f|`` dips
-    towards zero without changing sign is searched for a hidden pair of
-    crossings with :func:`scipy.optimize.elementwise.find_minimum`.
+    Besides the sign changes between samples, places where ``|f|`` dips
+    towards zero without changing sign are searched for a hidden pair of
+    crossings: a sample that is a deep local minimum of ``|f|`` (searched with
+    :func:`scipy.optimize.elementwise.find_minimum`), and an interval, the
+    first and last of a segment included, whose two ends are both much
+    closer to zero than their outer neighbours (its midpoint is evaluated,
+    then searched the same way). Sampled: a pair of crossings that leaves no
+    such trace is missed.
 
     Parameters
     ----------
@@ -121,16 +129,23 @@ def line_crossings(
     same = seg_of[1:] == seg_of[:-1]
     j = np.flatnonzero(same & (inside[1:] != inside[:-1]))
     seg, lo, hi, rising = seg_of[j], s[j], s[j + 1], inside[j]
-    extra = _split_dips(surface, origin, direction, *_dips(seg_of, s, values, inside, same))
-    if extra[0].size:
-        parts = zip((seg, lo, hi, rising), extra, strict=True)
-        seg, lo, hi, rising = (np.concatenate(p) for p in parts)
+    *dips, dip_at = _dips(seg_of, s, values, inside, same)
+    pairs, triples = _valleys(surface, origin, direction, seg_of, s, values, inside, same, dip_at)
+    # One minimum search for the dips and the valleys together.
+    triples = [np.concatenate(p) for p in zip(dips, triples, strict=True)]
+    for found in (_split_dips(surface, origin, direction, *triples), pairs):
+        if found[0].size:
+            parts = zip((seg, lo, hi, rising), found, strict=True)
+            seg, lo, hi, rising = (np.concatenate(p) for p in parts)
     if seg.size == 0:
         return _empty()
-    root = _roots(surface, origin[seg], direction[seg], lo, hi, xatol)
+    root, ok = _roots(surface, origin[seg], direction[seg], lo, hi, xatol)
+    failed = np.unique(seg[~ok])
+    seg, root, rising = seg[ok], root[ok], rising[ok]
     order = np.lexsort((root, seg))
     seg, root, rising = seg[order], root[order], rising[order]
-    return Crossings(seg, root, origin[seg] + root[:, None] * direction[seg], rising)
+    point = origin[seg] + root[:, None] * direction[seg]
+    return Crossings(seg, root, point, rising, failed)
 
 
 def _line_function(surface):
@@ -152,10 +167,16 @@ def _roots(surface, o, d, lo, hi, xatol):
         args=_coords(o, d),
         tolerances={"xatol": xatol, "xrtol": 0.0},
     )
-    failed = res.status != 0
-    if failed.any():
-        log.debug("find_root: %d brackets did not converge", int(failed.sum()))
-    return np.where(failed, 0.5 * (res.bracket[0] + res.bracket[1]), res.x)
+    ok = res.status == 0
+    if not ok.all():
+        log.warning(
+            "root finding: %d of %d brackets did not converge (status %s); their "
+            "crossings are not used",
+            int((~ok).sum()),
+            len(ok),
+            sorted(set(res.status[~ok].tolist())),
+        )
+    return res.x, ok
 
 
 def _dips(seg_of, s, values, inside, same):
@@ -173,7 +194,53 @@ def _dips(seg_of, s, values, inside, same):
         & (inside[1:-1] == inside[2:])
     )
     j = np.flatnonzero(dip) + 1
-    return seg_of[j], s[j - 1], s[j], s[j + 1], np.where(inside[j], -1.0, 1.0)
+    at = np.zeros(len(values), bool)
+    at[j] = True
+    return seg_of[j], s[j - 1], s[j], s[j + 1], np.where(inside[j], -1.0, 1.0), at
+
+
+def _valleys(surface, origin, direction, seg_of, s, values, inside, same, dip_at):
+    """Crossing pairs hidden inside one interval.
+
+    Candidates are intervals without a sign change, not next to a dip sample,
+    whose ends are both below ``DIP_FRACTION`` times ``|f|`` at the outer
+    neighbour samples (the one there is at a segment's end). The midpoint of
+    each is evaluated (one call of ``f``). Returns ``(pairs, triples)``:
+    brackets ``(seg, lo, hi, rising)`` where the midpoint changes sign, and
+    ``(seg, left, middle, right, sign)`` triples for :func:`_split_dips` where
+    ``|f|`` is smaller at the midpoint than at both ends.
+    """
+    a = np.abs(values)
+    n = len(a)
+    no_triples = (np.zeros(0, np.int64), *([np.zeros(0)] * 4))
+    no_pairs = (np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0, bool))
+    j = np.flatnonzero(same & (inside[1:] == inside[:-1]) & ~dip_at[:-1] & ~dip_at[1:])
+    left = np.zeros(j.size)
+    has_left = j >= 1
+    has_left[has_left] &= same[j[has_left] - 1]
+    left[has_left] = a[j[has_left] - 1]
+    right = np.zeros(j.size)
+    has_right = j + 2 < n
+    has_right[has_right] &= same[np.minimum(j[has_right] + 1, n - 2)]
+    right[has_right] = a[j[has_right] + 2]
+    j = j[np.maximum(a[j], a[j + 1]) < DIP_FRACTION * np.maximum(left, right)]
+    if j.size == 0:
+        return no_pairs, no_triples
+    seg, lo, hi = seg_of[j], s[j], s[j + 1]
+    mid = 0.5 * (lo + hi)
+    fm = surface(origin[seg] + mid[:, None] * direction[seg])
+    c = (fm < 0.0) != inside[j]
+    lower = ~c & (np.abs(fm) < np.minimum(a[j], a[j + 1]))
+    if c.any():
+        log.debug("valleys: %d hidden crossing pairs found at midpoints", int(c.sum()))
+    pairs = (
+        np.concatenate([seg[c], seg[c]]),
+        np.concatenate([lo[c], mid[c]]),
+        np.concatenate([mid[c], hi[c]]),
+        np.concatenate([inside[j][c], ~inside[j][c]]),
+    )
+    sgn = np.where(inside[j], -1.0, 1.0)
+    return pairs, (seg[lower], lo[lower], mid[lower], hi[lower], sgn[lower])
 
 
 def _split_dips(surface, origin, direction, seg, x1, x2, x3, sgn):

@@ -52,6 +52,7 @@ from .._tol import (
     POLYGON_EPS,
     TINY,
 )
+from .._vectors import row_norms
 from .complex import ComplexStatus
 
 #: Newton iterations per seed (seeds leave early when they converge or stray).
@@ -236,8 +237,8 @@ def _end_slopes(ga, gb, e2):
     """``<grad f, e2>`` at the crossings ``a`` and ``b``, and its cosine with
     the gradient (how closely the arc follows the chord there)."""
     sa, sb = np.einsum("ij,ij->i", ga, e2), np.einsum("ij,ij->i", gb, e2)
-    ca = np.abs(sa) / np.maximum(np.linalg.norm(ga, axis=1), TINY)
-    cb = np.abs(sb) / np.maximum(np.linalg.norm(gb, axis=1), TINY)
+    ca = np.abs(sa) / np.maximum(row_norms(ga), TINY)
+    cb = np.abs(sb) / np.maximum(row_norms(gb), TINY)
     return sa, sb, ca, cb
 
 
@@ -261,7 +262,8 @@ def _screen(vertices, edges, a, b, ga, gb):
     with np.errstate(divide="ignore", invalid="ignore"):
         t = sa / (sa - sb)
     far = ~(np.abs(t - 0.5) <= 1.0)  # NaN (no turn) counts as far
-    return (sa * sb > 0) & (np.minimum(ca, cb) >= MONOTONE_COS) & far & (length > 0)
+    same_way = np.sign(sa) * np.sign(sb) > 0
+    return same_way & (np.minimum(ca, cb) >= MONOTONE_COS) & far & (length > 0)
 
 
 def _probe_edges(vertices, probes, tree):
@@ -317,7 +319,7 @@ def _test(surface, vertices, edges, is2, a, b, ga, gb, off, pts, fresh, seeds):
     # The arc's direction along the chord is sign(<grad f, e2>) (the tangent
     # is n x grad f): opposite signs at a and b mean the arc turns back.
     sa, sb, ca, cb = _end_slopes(ga, gb, e2)
-    fold = k2 & (sa * sb < 0)
+    fold = k2 & (np.sign(sa) * np.sign(sb) < 0)
     straight = k2 & (np.minimum(ca, cb) >= MONOTONE_COS)
     # Chord seed: where <grad f, e2>, interpolated linearly from a to b,
     # vanishes (the turn the ends predict), if that lies within the polygon.
@@ -376,7 +378,7 @@ def _newton(surface, x, row, nrm, e1, e2, centroid, diam):
         g1 = np.einsum("ij,ij->i", g, u)
         g2 = np.einsum("ij,ij->i", g, v)
         gn = np.maximum(
-            np.linalg.norm(g - np.einsum("ij,ij->i", g, n_)[:, None] * n_, axis=1), TINY
+            row_norms(g - np.einsum("ij,ij->i", g, n_)[:, None] * n_), TINY
         )
         ok = (np.abs(f) <= LOOP_F_TOL * diam[row] * gn) & (np.abs(g2) <= LOOP_G_TOL * gn)
         if ok.any():

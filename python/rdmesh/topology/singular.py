@@ -14,6 +14,7 @@ from .._tol import (
     SINGULAR_MERGE,
     TINY,
 )
+from .._vectors import row_norms
 from ..sampling.probes import Probes
 from ..surfaces.oracle import ImplicitSurface
 
@@ -40,7 +41,7 @@ def singular_points(surface: ImplicitSurface, probes: Probes, seed: int = 0) -> 
     if len(pts) == 0:
         return np.zeros((0, 3))
     R = surface.radius
-    gn = np.linalg.norm(surface.grad(pts), axis=1)
+    gn = row_norms(surface.grad(pts))
     scale = float(np.median(gn))
     if not scale > 0:
         return np.zeros((0, 3))
@@ -51,10 +52,12 @@ def singular_points(surface: ImplicitSurface, probes: Probes, seed: int = 0) -> 
     h = HESSIAN_STEP * R
     eye = np.eye(3)
     for _ in range(SINGULAR_ITERATIONS):
-        g = surface.grad(x)
+        # Divided by the typical gradient: the step is scale-free, and H^T H
+        # neither overflows nor underflows for f scaled by 1e+-200.
+        g = surface.grad(x) / scale
         cols = surface.grad(
             np.concatenate([x + s * h * eye[k] for k in range(3) for s in (1.0, -1.0)])
-        ).reshape(3, 2, len(x), 3)
+        ).reshape(3, 2, len(x), 3) / scale
         H = np.stack([(cols[k, 0] - cols[k, 1]) / (2 * h) for k in range(3)], axis=2)
         HtH = np.einsum("nji,njk->nik", H, H)
         mu = SINGULAR_DAMPING * np.maximum(np.einsum("nii->n", HtH), TINY)
@@ -66,7 +69,7 @@ def singular_points(surface: ImplicitSurface, probes: Probes, seed: int = 0) -> 
         if len(x) == 0:
             return np.zeros((0, 3))
     f = surface(x)
-    g = np.linalg.norm(surface.grad(x), axis=1)
+    g = row_norms(surface.grad(x))
     sing = (np.abs(f) <= SINGULAR_F * R * scale) & (g <= SINGULAR_GRADIENT * scale)
     x = x[sing]
     if len(x) == 0:

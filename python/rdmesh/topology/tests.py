@@ -45,12 +45,13 @@ Newton seeds, and the silhouette test samples each cell with the probes.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._tol import SHOT_ATOL, SHOT_OFFSET, SILHOUETTE_SLACK, TINY
+from .._tol import SHOT_ATOL, SHOT_OFFSET, SILHOUETTE_SLACK
+from .._vectors import unit_rows
 from ..sampling.probes import Probes
 from ..sampling.roots import SegmentSamples, line_crossings
 from .complex import largest_incident
@@ -80,6 +81,9 @@ class Violations:
     count: int
     centres: np.ndarray
     radii: np.ndarray
+    #: ``(m, 3)``: where failing elements have no refinement point (the sample
+    #: of an isolated sample or a silhouette cell); never silently dropped.
+    stuck: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 def _none(kind: str) -> Violations:
@@ -139,16 +143,17 @@ def isolated_test(surface, vertices, tri, tree=None) -> Violations:
     lonely = isolated_samples(tri, len(vertices))
     if lonely.size == 0:
         return _none("isolated")
-    x, r = shoot_from(surface, vertices, lonely, tree)
-    return Violations("isolated", int(lonely.size), x, r)
+    x, r, got = shoot_from(surface, vertices, lonely, tree)
+    stuck = vertices[np.setdiff1d(lonely, got)]
+    return Violations("isolated", int(lonely.size), x, r, stuck)
 
 
 def shoot_from(surface, vertices, ids, tree=None):
     """For each sample in ``ids``: the farthest first crossing of its shots that
-    lies in its Voronoi cell, ``(x (k, 3), r (k,))`` for the samples that have one."""
+    lies in its Voronoi cell, ``(x (k, 3), r (k,), sample ids (k,))`` for the
+    samples that have one."""
     p = vertices[ids]
-    n = surface.grad(p)
-    n /= np.maximum(np.linalg.norm(n, axis=1), TINY)[:, None]
+    n = unit_rows(surface.grad(p))
     dirs = shot_directions(n)  # (len(p), D, 3)
     D = dirs.shape[1]
     owner = np.repeat(np.arange(len(p)), D)
@@ -164,7 +169,7 @@ def shoot_from(surface, vertices, ids, tree=None):
     samples = SegmentSamples.uniform(length[rows], 64)
     cr = line_crossings(surface, start[rows], d[rows], samples, xatol=SHOT_ATOL * R)
     if cr.segment.size == 0:
-        return np.zeros((0, 3)), np.zeros(0)
+        return np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64)
     first = np.r_[True, cr.segment[1:] != cr.segment[:-1]]
     seg, x = rows[cr.segment[first]], cr.point[first]
     _, nearest = (tree or cKDTree(vertices)).query(x)
@@ -173,7 +178,7 @@ def shoot_from(surface, vertices, ids, tree=None):
     seg, x, me = seg[valid], x[valid], me[valid]
     r = np.linalg.norm(x - vertices[me], axis=1)
     pick = largest_incident(me, np.arange(len(x)), r)
-    return x[pick], r[pick]
+    return x[pick], r[pick], me[pick]
 
 
 def shot_directions(n: np.ndarray) -> np.ndarray:
@@ -213,7 +218,10 @@ def silhouette_test(
     bad_cell[owner[bad_probe]] = True
     sel = np.flatnonzero(bad_cell[owner] & (dist > 0))
     count = int(bad_cell.sum())
+    pointed = np.zeros(len(vertices), bool)
+    pointed[owner[sel]] = True
+    stuck = vertices[bad_cell & ~pointed]
     if sel.size == 0:
-        return Violations("silhouette", count, np.zeros((0, 3)), np.zeros(0))
+        return Violations("silhouette", count, np.zeros((0, 3)), np.zeros(0), stuck)
     pick = largest_incident(owner[sel], sel, dist)
-    return Violations("silhouette", count, probes.points[pick], dist[pick])
+    return Violations("silhouette", count, probes.points[pick], dist[pick], stuck)

@@ -1,0 +1,247 @@
+"""Reliability: no silent loss, no runaway refinement, no crash from threads or Ctrl-C.
+
+Each test here failed (or crashed, or did not end) before the fix it guards.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+import rdmesh
+from rdmesh.refine import mesher as mesher_module
+from rdmesh.refine.stages import Candidates
+from rdmesh.sampling import roots
+from rdmesh.sampling.roots import SegmentSamples, line_crossings
+from rdmesh.surfaces import SURFACES
+from rdmesh.topology.regions import regions
+from rdmesh.topology.snapshot import Snapshot
+
+
+def _sphere_f(p):
+    return np.einsum("ij,ij->i", p, p) - 1.0
+
+
+# -- root finding ---------------------------------------------------------------------------
+
+
+def test_pair_of_crossings_in_the_first_interval_is_found():
+    """A chord at height 0.99 through the unit sphere from x = -0.2, 3 intervals:
+    both crossings lie in the first interval, which the dip search skipped."""
+    s = SURFACES["sphere"].make()
+    o = np.array([[-0.2, 0.99, 0.0]])
+    d = np.array([[1.0, 0.0, 0.0]])
+    samples = SegmentSamples.uniform(np.array([1.2]), 3)
+    cr = line_crossings(s, o, d, samples, 1e-13)
+    x = np.sqrt(1 - 0.99**2)
+    assert np.allclose(cr.point[:, 0], [-x, x], atol=1e-10)
+    assert cr.rising.tolist() == [False, True]
+    # Mirrored: the pair in the last interval.
+    cr = line_crossings(s, -o, -d, samples, 1e-13)
+    assert np.allclose(np.sort(cr.point[:, 0]), [-x, x], atol=1e-10)
+
+
+def test_failed_bracket_is_flagged_not_used(monkeypatch):
+    """A bracket whose root search does not converge gives no surface point,
+    and its segment is reported."""
+    real = roots.elementwise.find_root
+
+    def failing(*args, **kwargs):
+        res = real(*args, **kwargs)
+        res.status[0] = -2  # maxiter on the first bracket
+        return res
+
+    monkeypatch.setattr(roots.elementwise, "find_root", failing)
+    s = SURFACES["sphere"].make()
+    o = np.array([[-2.0, 0.0, 0.0], [-2.0, 0.5, 0.0]])
+    d = np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    cr = line_crossings(s, o, d, SegmentSamples.uniform(np.full(2, 4.0), 8), 1e-12)
+    assert cr.failed.tolist() == [0]
+    assert len(cr.point) == 3  # the other crossing of segment 0 and both of segment 1
+    assert np.allclose(np.linalg.norm(cr.point, axis=1), 1.0, atol=1e-9)
+
+
+# -- runaway refinement on bad but plausible functions ----------------------------------------
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e200])
+def test_scaled_f_meshes_like_f(scale):
+    """Gradient norms by squaring underflowed (overflowed), so every crossing
+    looked tangential and refinement never ended."""
+    plain = rdmesh.mesh_surface(
+        rdmesh.ImplicitSurface(_sphere_f, ((0, 0, 0), 2.0)), radius_bound=0.2
+    )
+    scaled = rdmesh.mesh_surface(
+        rdmesh.ImplicitSurface(lambda p: scale * _sphere_f(p), ((0, 0, 0), 2.0)),
+        radius_bound=0.2,
+        max_vertices=20 * len(plain.vertices),
+    )
+    assert scaled.complete and scaled.is_closed_manifold()
+    assert abs(len(scaled.vertices) - len(plain.vertices)) <= 0.05 * len(plain.vertices)
+
+
+def test_zero_gradient_is_an_oracle_error():
+    surface = rdmesh.ImplicitSurface(
+        _sphere_f, ((0, 0, 0), 2.0), gradient=lambda p: np.zeros((len(p), 3))
+    )
+    with pytest.raises(rdmesh.OracleError, match="gradient is zero or not finite"):
+        rdmesh.mesh_surface(surface, radius_bound=0.2, max_vertices=100_000)
+
+
+def test_quantised_f_ends():
+    """An integer-valued f: central differences vanish off the steps."""
+    surface = rdmesh.ImplicitSurface(
+        lambda p: np.round(10 * (np.sqrt(np.einsum("ij,ij->i", p, p)) - 1)),
+        ((0, 0, 0), 2.0),
+    )
+    try:
+        m = rdmesh.mesh_surface(surface, radius_bound=0.2, max_vertices=200_000)
+    except rdmesh.OracleError as exc:
+        assert "gradient" in str(exc)
+    else:
+        assert len(m.vertices) < 200_000
+
+
+# -- violations without a point, stalls, the round cap ----------------------------------------
+
+
+class _Stage:
+    """A stage that proposes fixed points, with some failures lacking a point."""
+
+    def __init__(self, name, centres, radii, stuck):
+        self.name, self.centres, self.radii, self.stuck = name, centres, radii, stuck
+
+    def candidates(self, snap):
+        return Candidates(self.name, self.centres, self.radii, True, 1, self.stuck)
+
+
+def _with_extra_stage(monkeypatch, stage):
+    """Append ``stage`` to the Boissonnat-Oudot method's last phase."""
+    real = mesher_module.METHODS["boissonnat-oudot"]
+
+    def plan(*args):
+        p = real(*args)
+        p.phases[-1].append(stage)
+        return p
+
+    monkeypatch.setitem(mesher_module.METHODS, "boissonnat-oudot", plan)
+
+
+def test_violation_without_point_is_unresolved(monkeypatch):
+    where = np.array([[0.0, 0.0, 1.0]])
+    _with_extra_stage(monkeypatch, _Stage("probe", np.zeros((0, 3)), np.zeros(0), where))
+    m = rdmesh.mesh_surface(SURFACES["sphere"].make(), radius_bound=0.3)
+    assert not m.complete
+    assert np.array_equal(m.unresolved, where)
+    assert "unresolved" in m.stats["stop_reason"]
+    assert not m.topology_certified
+
+
+def test_batch_without_new_vertex_stops(monkeypatch):
+    """A batch of existing samples used to repeat until the round cap."""
+    first = rdmesh.mesh_surface(SURFACES["sphere"].make(), radius_bound=0.3)
+    v = first.vertices[:1]
+    _with_extra_stage(monkeypatch, _Stage("stuck", v, np.ones(1), np.zeros((0, 3))))
+    with pytest.raises(rdmesh.RefinementStalled, match="no progress") as info:
+        rdmesh.mesh_surface(SURFACES["sphere"].make(), radius_bound=0.3)
+    assert info.value.mesh is not None and not info.value.mesh.complete
+    assert info.value.mesh.stats["rounds"] < 10
+
+
+def test_round_cap_leaves_points_unresolved(monkeypatch):
+    monkeypatch.setattr(mesher_module, "MAX_ROUNDS", 1)
+    m = rdmesh.mesh_surface(SURFACES["torus"].make(), radius_bound=0.05)
+    assert not m.complete and len(m.unresolved) > 0
+
+
+# -- the debug check ------------------------------------------------------------------------------
+
+
+def test_debug_check_catches_a_wrong_surface_centre(monkeypatch):
+    monkeypatch.setenv("RDMESH_CHECK", "1")
+    real = Snapshot.facets
+
+    def shifted(self, mask=0):
+        tri, centres, flags = real(self, mask)
+        return tri, centres * 0.5, flags  # centres off the surface: balls not empty
+
+    monkeypatch.setattr(Snapshot, "facets", shifted)
+    with pytest.raises(rdmesh.InternalCheckError, match="not empty"):
+        rdmesh.mesh_surface(SURFACES["sphere"].make(), radius_bound=0.3)
+
+
+def test_debug_check_is_on_in_the_test_suite():
+    assert os.environ.get("RDMESH_CHECK") == "1"
+
+
+# -- regions scale and join what is near ---------------------------------------------------------
+
+
+def test_regions_join_points_within_the_link():
+    rng = np.random.default_rng(0)
+    a = rng.normal(0, 0.01, (500, 3))
+    b = rng.normal(0, 0.01, (300, 3)) + [1.0, 0, 0]
+    line = np.column_stack([np.linspace(3, 4, 200), np.zeros(200), np.zeros(200)])
+    rs = regions(np.concatenate([a, b, line]), 0.05)
+    assert [r["points"] for r in rs] == [500, 300, 200]
+    assert np.allclose(rs[1]["centre"], [1, 0, 0], atol=0.01)
+
+
+def test_regions_of_a_million_points():
+    pts = np.random.default_rng(1).uniform(-1, 1, (1_000_000, 3))
+    rs = regions(pts, 0.05)
+    assert sum(r["points"] for r in rs) == 1_000_000
+    assert len(rs) == 1  # a dense cloud is one region
+
+
+# -- threads and Ctrl-C ---------------------------------------------------------------------------
+
+
+def _batch_case(name):
+    m = rdmesh.mesh_surface(SURFACES[name].make(), radius_bound=0.15, seed=3)
+    return m.vertices, m.faces
+
+
+def test_meshes_from_a_thread_pool_equal_one_at_a_time():
+    names = ["sphere", "torus", "tanglecube", "blob_line"] * 2
+    alone = [_batch_case(n) for n in names[:4]]
+    with ThreadPoolExecutor(4) as pool:
+        together = list(pool.map(_batch_case, names))
+    for (v, f), (v2, f2) in zip(alone * 2, together, strict=True):
+        assert np.array_equal(v, v2) and np.array_equal(f, f2)
+
+
+@pytest.mark.parametrize("gap", [0.0, 0.02, 0.2])
+def test_two_ctrl_c_end_with_status_130(gap, tmp_path):
+    """A second Ctrl-C used to interrupt the worker's shutdown while the core
+    was still in use: a segfault. Now it must end with status 130."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rdmesh", "mesh", "torus", "--radius", "0.004",
+         "--time-limit", "120", "-o", str(tmp_path / "m.ply")],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    try:
+        seen = b""
+        while not re.search(rb"round=\d", seen):
+            chunk = os.read(proc.stderr.fileno(), 4096)
+            assert chunk, f"rdmesh ended before the first round was shown: {seen!r}"
+            seen += chunk
+        proc.send_signal(signal.SIGINT)
+        if gap:
+            import time
+
+            time.sleep(gap)
+        proc.send_signal(signal.SIGINT)
+        _, stderr = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130, (seen + stderr).decode()[-2000:]
+    assert b"Traceback" not in stderr
