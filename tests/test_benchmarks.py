@@ -28,8 +28,11 @@ from rdmesh.surfaces import SURFACES, get  # noqa: E402
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 sys.path.insert(0, str(BENCH))
 
+import measure  # noqa: E402
+import meshers  # noqa: E402
+import meshfile  # noqa: E402
 import metrics  # noqa: E402
-import suite  # noqa: E402
+import record  # noqa: E402
 
 QUICK_SURFACES = ("sphere", "torus")
 QUICK_SIZE = 1000
@@ -68,7 +71,7 @@ def test_quick_run_is_fast(quick):
 
 def test_json_schema(quick):
     _, _, res, _ = quick
-    assert res["schema"] == suite.SCHEMA
+    assert res["schema"] == record.SCHEMA
     assert res["finished"] is True
     for key in ("date", "command", "machine", "versions", "settings", "calibration",
                 "cases", "targets", "unavailable"):  # fmt: skip
@@ -81,9 +84,9 @@ def test_json_schema(quick):
         assert cal["C"] > 0 and cal["area"] > 0 and cal["radius"] > 0
 
     cases = res["cases"]
-    assert len(cases) == len(QUICK_SURFACES) * len(suite.MESHERS)
+    assert len(cases) == len(QUICK_SURFACES) * len(meshers.MESHERS)
     assert {(c["surface"], c["mesher"]) for c in cases} == {
-        (s, m) for s in QUICK_SURFACES for m in suite.MESHERS
+        (s, m) for s in QUICK_SURFACES for m in meshers.MESHERS
     }
     for c in cases:
         assert c["status"] in STATUSES, c
@@ -205,10 +208,10 @@ def test_failures_are_recorded(tmp_path):
 def test_run_measured_peak_rss_is_the_childs():
     # This test process holds numpy, scipy, rdmesh and matplotlib (far more
     # than 40 MB); the child's figure must not inherit it.
-    small = suite.run_measured([sys.executable, "-I", "-S", "-c", "pass"], timeout=60)
+    small = measure.run_measured([sys.executable, "-I", "-S", "-c", "pass"], timeout=60)
     assert small["returncode"] == 0 and not small["timed_out"]
     assert small["peak_rss_mb"] < 40
-    big = suite.run_measured(
+    big = measure.run_measured(
         [sys.executable, "-I", "-S", "-c", "x = b'x' * (200 * 2**20)"], timeout=60
     )
     assert 200 <= big["peak_rss_mb"] < 300
@@ -216,16 +219,16 @@ def test_run_measured_peak_rss_is_the_childs():
 
 def test_run_measured_memory_limit():
     code = "x = b'x' * (300 * 2**20)"
-    res = suite.run_measured([sys.executable, "-I", "-S", "-c", code], 60, memory_limit_mb=150)
+    res = measure.run_measured([sys.executable, "-I", "-S", "-c", code], 60, memory_limit_mb=150)
     assert res["returncode"] == 1 and "MemoryError" in res["stderr"]
 
 
 def test_run_measured_timeout_and_exit_code():
     t0 = time.perf_counter()
-    res = suite.run_measured([sys.executable, "-c", "import time; time.sleep(30)"], timeout=0.5)
+    res = measure.run_measured([sys.executable, "-c", "import time; time.sleep(30)"], timeout=0.5)
     assert res["timed_out"] and res["returncode"] is None
     assert time.perf_counter() - t0 < 10
-    res = suite.run_measured(
+    res = measure.run_measured(
         [sys.executable, "-c", "import sys; print('out'); sys.exit(3)"], timeout=60
     )
     assert res["returncode"] == 3 and res["stdout"].strip() == "out" and not res["timed_out"]
@@ -234,7 +237,7 @@ def test_run_measured_timeout_and_exit_code():
 def test_read_off(tmp_path):
     p = tmp_path / "m.off"
     p.write_text("OFF\n# comment\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n")
-    v, f = suite.read_off(p)
+    v, f = meshfile.read_off(p)
     assert v.shape == (4, 3) and v[3].tolist() == [0, 0, 1]
     assert f.tolist() == [[0, 1, 2], [0, 1, 3]]
 
