@@ -292,23 +292,27 @@ def test_time_limit_writes_the_partial_mesh(tmp_path):
 
 def test_ctrl_c_writes_the_partial_mesh(tmp_path):
     # A run of a minute or more: interrupted once refinement rounds have begun
-    # (the progress bar, on stderr after a second, shows the round).
+    # (the progress bar, on stderr after a second, shows the round).  The
+    # watchdog only guards against a hang: it kills rdmesh, which ends the
+    # read loop and fails the test on the exit status.
     proc = subprocess.Popen(
         [sys.executable, "-m", "rdmesh", "mesh", "torus", "--radius", "0.004",
-         "--time-limit", "120", "-o", "int.ply"],
+         "--time-limit", "3600", "-o", "int.ply"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
     )  # fmt: skip
+    watchdog = threading.Timer(900, proc.kill)
+    watchdog.daemon = True
+    watchdog.start()
     try:
         seen = b""
-        t0 = time.monotonic()
         while not re.search(rb"round=\d", seen):
             chunk = os.read(proc.stderr.fileno(), 4096)
             assert chunk, f"rdmesh ended before the first round was shown: {seen!r}"
             seen += chunk
-            assert time.monotonic() - t0 < 60
         proc.send_signal(signal.SIGINT)
-        stdout, stderr = proc.communicate(timeout=120)
+        stdout, stderr = proc.communicate()
     finally:
+        watchdog.cancel()
         if proc.poll() is None:
             proc.kill()
             proc.communicate()
@@ -405,7 +409,7 @@ def test_api_progress_true_shows_a_bar_on_stderr(capfd, monkeypatch):
     rdmesh.mesh_surface(surface, radius_bound=0.3, progress=True)
     captured = capfd.readouterr()
     assert captured.out == ""
-    assert re.search(r"rdmesh: \d+ vertices \[00:0\d, round=\d+, stage=\w+\]", captured.err)
+    assert re.search(r"rdmesh: \d+ vertices \[\d\d:\d\d, round=\d+, stage=\w+\]", captured.err)
     assert captured.err.endswith("\n")
 
 

@@ -1,0 +1,198 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The run loop of the benchmark suite.
+
+For every surface: calibrate; for every size: a case per mesher, run
+``--repeats`` times (the mesher order reversed every other repeat), each run
+a fresh process measured by ``measure.run_measured``; quality measured once
+per case on the first successful run's mesh; the JSON record written after
+every run.  Failures and timeouts are recorded, not raised.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+import record
+from calibration import cached_calibration, calibration_target
+from measure import run_measured
+from meshers import Mesher, adapters
+from quality import QualityMeter
+
+__all__ = ["Suite", "describe"]
+
+
+def _stem(out: Path) -> str:
+    """Today's date, with -2, -3, ... if a run of today is already in ``out``."""
+    stamp = _dt.datetime.now().strftime("%Y-%m-%d")
+    stem, k = stamp, 2
+    while (out / f"{stem}.json").exists():
+        stem, k = f"{stamp}-{k}", k + 1
+    return stem
+
+
+def describe(case: dict, run: dict) -> str:
+    """One line about one run, for the log."""
+    head = f"{case['surface']:12s} {record.fmt_size(case['size']):>5s} {case['mesher']:20s} "
+    head += f"rep {run['repeat']}: "
+    if run["status"] != "ok":
+        return head + f"{run['status'].upper()} {run['error']}"
+    rss = run["peak_rss_mb"]
+    return head + (
+        f"{run['seconds']:8.2f} s {run['vertices']:9d} vertices "
+        + (f"{rss:8.0f} MB" if rss is not None else "    ? MB")
+    )
+
+
+class Suite:
+    """One suite run: the settings, the JSON record and where it goes."""
+
+    def __init__(self, args: argparse.Namespace) -> None:
+        self.args = args
+        self.out = Path(args.out)
+        self.tmp = self.out / "tmp"
+        self.cache = self.tmp / "cache"
+        self.cache.mkdir(parents=True, exist_ok=True)
+        self.stem = _stem(self.out)
+        self.json_path = self.out / f"{self.stem}.json"
+        self.results: dict[str, Any] = record.new_record(args)
+        self.unavailable: dict[str, str] = self.results["unavailable"]
+        self.meshers: dict[str, Mesher] = {}
+        self.quality = QualityMeter(
+            self.cache, args.reference_samples, args.angle, args.seed, self.log
+        )
+
+    def log(self, msg: str) -> None:
+        print(msg, file=sys.stderr, flush=True)
+
+    def save(self) -> None:
+        record.save(self.results, self.json_path)
+
+    def run(self) -> None:
+        args = self.args
+        self.meshers = adapters(args.meshers, args, self.results, self.log)
+        self.save()
+        target = calibration_target(args.sizes)
+        for surface in args.surfaces:
+            cal = cached_calibration(
+                self.cache, surface, args.angle, target, args.seed,
+                recalibrate=args.recalibrate, log=self.log,
+            )  # fmt: skip
+            self.results["calibration"][surface] = cal
+            self.save()
+            for size in sorted(int(s) for s in args.sizes):
+                cases = {m: self.new_case(m, surface, size, cal) for m in args.meshers}
+                self.run_cases(cases)
+        self.results["finished"] = True
+
+    def new_case(self, mesher: str, surface: str, size: int, cal: dict) -> dict[str, Any]:
+        """A case, marked if it is not run, appended to the record."""
+        params = self.meshers[mesher].params(surface, size, cal)
+        case = record.new_case(surface, size, mesher, params)
+        why = self.skip_reason(mesher, surface, size)
+        if why is not None:
+            case.update(
+                status="unavailable" if mesher in self.unavailable else "skipped", note=why
+            )
+        self.results["cases"].append(case)
+        return case
+
+    def skip_reason(self, mesher: str, surface: str, size: int) -> str | None:
+        if mesher in self.unavailable:
+            return self.unavailable[mesher]
+        why = self.meshers[mesher].skip(size, self.args)
+        if why is not None:
+            return why
+        # A mesher that failed or timed out on a smaller size is not tried again.
+        for c in self.results["cases"]:
+            if (
+                c["mesher"] == mesher
+                and c["surface"] == surface
+                and c["size"] < size
+                and c["status"] in ("failed", "timeout")
+            ):
+                return f"{c['status']} at size {record.fmt_size(c['size'])}"
+        return None
+
+    def run_cases(self, cases: dict[str, dict]) -> None:
+        """The repeats of one surface and size, meshers alternating."""
+        args = self.args
+        for rep in range(args.repeats):
+            order = list(args.meshers) if rep % 2 == 0 else list(reversed(args.meshers))
+            for mesher in order:
+                case = cases[mesher]
+                if case["status"] in ("skipped", "unavailable"):
+                    continue
+                if rep >= self.meshers[mesher].repeats(args):
+                    continue
+                if any(r["status"] == "timeout" for r in case["runs"]):
+                    continue  # do not spend another timeout on it
+                run = self.run_once(case, rep, keep_mesh=case["quality"] is None)
+                case["runs"].append(run)
+                self.log(describe(case, run))
+                if run["status"] == "ok" and case["quality"] is None and "mesh_file" in run:
+                    try:
+                        bbox = self.results["calibration"][case["surface"]]["bbox"]
+                        case["quality"] = self.quality.measure(
+                            case["surface"], run["mesh_file"], bbox
+                        )
+                    except Exception as exc:  # noqa: BLE001 - record, do not crash
+                        case["quality"] = {"error": f"{type(exc).__name__}: {exc}"}
+                if run.get("mesh_file"):
+                    Path(run["mesh_file"]).unlink(missing_ok=True)
+                    run.pop("mesh_file")
+                record.summarise(case)
+                self.save()
+
+    def run_once(self, case: dict, repeat: int, keep_mesh: bool) -> dict[str, Any]:
+        """One run of a case in a fresh process: the run's record."""
+        m = self.meshers[case["mesher"]]
+        mesh_path = None
+        if keep_mesh:
+            mesh_path = str(self.tmp / f"{case['surface']}-{case['size']}-{m.name}{m.suffix}")
+        timeout = m.timeout(self.args)
+        cmd = m.command(case, self.args, mesh_path)
+        load = os.getloadavg()[0]
+        limit = self.args.memory_limit_gb * 1024 if self.args.memory_limit_gb else None
+        res = run_measured(cmd, timeout, memory_limit_mb=limit)
+        run: dict[str, Any] = {
+            "repeat": repeat,
+            "status": "ok",
+            "error": None,
+            "process_seconds": res["wall"],
+            "peak_rss_mb": res["peak_rss_mb"],
+            "loadavg": load,
+        }
+        if res["timed_out"]:
+            run.update(status="timeout", error=f"killed after {timeout} s")
+            return run
+        try:
+            child = m.parse(res, f"{m.name} on {case['surface']}", self.results["versions"])
+        except (RuntimeError, ValueError) as exc:
+            run.update(status="failed", error=str(exc).strip()[-2000:])
+            return run
+        run.update(child)
+        run["vertices_per_second"] = (
+            child["vertices"] / child["seconds"] if child["seconds"] > 0 else None
+        )
+        if mesh_path is not None:
+            run["mesh_file"] = mesh_path
+        return run
+
+    def finish(self) -> dict[str, Path]:
+        """Write the report and plots (and the final JSON); what was written where."""
+        import plots
+        import report
+
+        self.results["machine"]["loadavg_end"] = list(os.getloadavg())
+        self.results["targets"] = report.targets(self.results)
+        self.save()
+        files = plots.render_all(self.results, self.out, self.stem)
+        md = report.build(self.results, {k: p.name for k, p in files.items()})
+        md_path = self.out / f"{self.stem}.md"
+        md_path.write_text(md)
+        return {"json": self.json_path, "report": md_path, **files}
