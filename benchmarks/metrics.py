@@ -9,7 +9,7 @@ pygalmesh, marching cubes):
 - :func:`angle_stats`: smallest angle, fraction of angles below 30 degrees and
   a histogram of each triangle's smallest angle.
 - :func:`topology_stats`: closed manifold, components and Euler
-  characteristic against the expected values (``rdmesh.complex`` helpers).
+  characteristic against the expected values (``rdmesh.topology.complex`` helpers).
 - :func:`hausdorff`: the sampled two-sided Hausdorff distance between the mesh
   and the surface ``f = 0``.
 
@@ -154,9 +154,9 @@ def topology_stats(
     """Closed manifold, components and Euler characteristic (V - E + F).
 
     ``closed_manifold``: every edge has exactly two faces and every used
-    vertex one fan of faces (``rdmesh.complex.complex_status``).
+    vertex one fan of faces (``rdmesh.topology.complex.complex_status``).
     ``euler`` is the total and ``euler_per_component`` the list, as
-    ``rdmesh.complex.euler_characteristics`` gives it.  ``topology_ok`` is
+    ``rdmesh.topology.complex.euler_characteristics`` gives it.  ``topology_ok`` is
     True when the mesh is a closed manifold with the expected number of
     components and Euler characteristic (None when nothing is expected).
     """

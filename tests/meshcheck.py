@@ -1,6 +1,6 @@
 """Independent mesh checks for the test suite.
 
-Nothing here uses rdmesh's own combinatorics (``rdmesh.complex``) or
+Nothing here uses rdmesh's own combinatorics (``rdmesh.topology.complex``) or
 geometry helpers (``rdmesh.criteria``): every property is recomputed from the
 raw vertex and face arrays so that a bug in the library cannot hide itself.
 """

@@ -1,4 +1,4 @@
-"""rdmesh.roots.line_crossings: every crossing along many segments at once."""
+"""rdmesh.sampling.roots.line_crossings: the crossings along many segments at once."""
 
 from __future__ import annotations
 

@@ -129,7 +129,8 @@ def test_boissonnat_oudot_report(sphere_case):
 def test_boissonnat_oudot_coarse_report_is_honest():
     """At a coarse size Boissonnat-Oudot gets the thin torus wrong; the report says so."""
     s = SURFACES["thin_torus"].make()
-    m = rdmesh.mesh_surface(s, radius_bound=0.5, angle_bound=0)
+    # 0.8 (not 0.5 any more: the valley search of the crossings gets 0.5 right).
+    m = rdmesh.mesh_surface(s, radius_bound=0.8, angle_bound=0)
     right = closed_manifold_problems(m.faces, len(m.vertices)) == [] and euler_per_component(
         m.faces, len(m.vertices)
     ) == [0]

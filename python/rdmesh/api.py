@@ -65,7 +65,8 @@ def mesh_surface(
     max_vertices : int, optional
         Stop when the mesh would exceed this many samples.
     time_limit : float, optional
-        Stop after about this many seconds.
+        Stop after about this many seconds: a round that the last round's
+        length says would end past the limit is not started.
     seed_resolution : int, default 64
         Cells across the bounding ball of the grid scan that finds the
         components; components thinner than a cell may be missed.
@@ -99,6 +100,15 @@ def mesh_surface(
     rdmesh.Interrupted
         Ctrl-C (KeyboardInterrupt) stopped the run; a BudgetExceeded with the
         partial mesh attached.
+    rdmesh.RefinementStalled
+        A refinement batch added no new sample; a BudgetExceeded with the
+        partial mesh attached.
+
+    Notes
+    -----
+    Points left unresolved (below the spacing floor, or failing tests without
+    a refinement point) do not raise: the mesh comes back with
+    ``complete=False`` and lists them in ``SurfaceMesh.unresolved``.
     """
     if not isinstance(surface, ImplicitSurface):
         raise ValueError(

@@ -33,10 +33,14 @@ class SurfaceMesh:
         ``evaluations`` (points at which ``f`` was evaluated), ``inserted`` per
         stage, ``unresolved`` and more.
     complete : bool
-        False when a budget stopped refinement early (see :class:`BudgetExceeded`).
+        False when a budget stopped refinement early (see :class:`BudgetExceeded`),
+        or when points were left unresolved. A complete mesh meshed with
+        ``topology="manifold"`` is a closed 2-manifold.
     unresolved : (k, 3) float64
-        Refinement points that were not inserted because they were closer than
-        the minimum spacing to the mesh; empty for a fully refined mesh.
+        Where refinement stopped short: refinement points refused by the
+        spacing floor (closer than it to the samples), and the places of
+        failing tests that found no refinement point (an isolated sample, a
+        silhouette cell); empty for a fully refined mesh.
     report : dict
         The topology report (:func:`rdmesh.topology.topology_report`), the
         same fields for every method, computed on the final samples:

@@ -32,7 +32,16 @@ def check_restricted(snap: Snapshot) -> None:
     if len(tri) == 0:
         return
     radii = snap.radii(0)
-    d, nearest = snap.tree.query(centres)
+    # The facet's own three vertices lie on its ball (up to the root
+    # tolerance); the fourth nearest sample is the first that may not.
+    k = min(4, len(snap.vertices))
+    d, idx = snap.tree.query(centres, k=k)
+    d, idx = d.reshape(len(tri), k), idx.reshape(len(tri), k)
+    own = (idx[:, :, None] == tri[:, None, :]).any(axis=2)
+    d = np.where(own, np.inf, d)
+    j = np.argmin(d, axis=1)
+    rows = np.arange(len(tri))
+    d, nearest = d[rows, j], idx[rows, j]
     bad = d < radii * (1.0 - BALL_SLACK)
     if bad.any():
         i = int(np.argmax(bad))
