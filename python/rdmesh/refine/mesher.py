@@ -51,7 +51,7 @@ class Budget:
     def exceeded(self, vertices: int, seconds: float, next_round: float = 0.0) -> str | None:
         """Which budget has run out, in words, or None.
 
-        ``next_round`` is the expected time of another round: a round that
+        ``next_round`` is the predicted time of another round: a round that
         would end past the time limit is not started.
         """
         if self.time_limit is not None and seconds + next_round > self.time_limit:
@@ -145,10 +145,11 @@ class Mesher:
         """Refinement rounds until nothing is left to refine or a budget runs out."""
         floor = SpacingFloor(self.criteria, self.surface.radius, plan.topology_floor)
         cap = self.budget.max_vertices
-        last_round = 0.0
+        # A round's cost (insert, update, stages, select) grows with the points
+        # it inserts: the next round is predicted from this one per point.
+        cycle_start, last_batch = t0, max(len(self.vertices), 1)
         while stop is None:
             self.rounds += 1
-            round_start = time.perf_counter()
             self.pipeline.update(self.vertices)
             snap = self.snapshot()
             if self.check:
@@ -166,15 +167,14 @@ class Mesher:
                 )  # fmt: skip
                 self.unresolved.append(found.centres)
                 break
-            now = time.perf_counter()
-            # Another round as long as the last whole one (or this one so far).
-            stop = self.budget.exceeded(
-                len(self.vertices), now - t0, max(last_round, now - round_start)
-            )
-            if stop:
-                break
             with self.timer("select"):
                 batch = found.centres[core.select_independent(found.centres, found.radii)]
+            now = time.perf_counter()
+            per_point = (now - cycle_start) / last_batch
+            stop = self.budget.exceeded(len(self.vertices), now - t0, per_point * len(batch))
+            if stop:
+                break
+            cycle_start, last_batch = now, max(len(batch), 1)
             if cap is not None and len(self.vertices) + len(batch) > cap:
                 batch = batch[: max(0, cap - len(self.vertices))]
                 stop = f"max_vertices={cap} reached"
@@ -199,7 +199,6 @@ class Mesher:
                         "seconds": time.perf_counter() - t0,
                     }
                 )
-            last_round = time.perf_counter() - round_start
         if stop:
             self.pipeline.update(self.vertices)
         return stop
@@ -277,6 +276,7 @@ def _result(m: Mesher, plan: Plan, t0: float, evals0: int, stop: str | None) -> 
             complete=not stop,
             critical=plan.critical,
             floor=plan.floor_report,
+            quick=bool(stop and stop.startswith("time_limit")),
         )
     timing = m.timer.seconds
     # The loop test's own time (refinement rounds and report).

@@ -377,9 +377,7 @@ def _newton(surface, x, row, nrm, e1, e2, centroid, diam):
         g = g3[0]
         g1 = np.einsum("ij,ij->i", g, u)
         g2 = np.einsum("ij,ij->i", g, v)
-        gn = np.maximum(
-            row_norms(g - np.einsum("ij,ij->i", g, n_)[:, None] * n_), TINY
-        )
+        gn = np.maximum(row_norms(g - np.einsum("ij,ij->i", g, n_)[:, None] * n_), TINY)
         ok = (np.abs(f) <= LOOP_F_TOL * diam[row] * gn) & (np.abs(g2) <= LOOP_G_TOL * gn)
         if ok.any():
             done_r.append(row[ok])

@@ -55,9 +55,12 @@ def singular_points(surface: ImplicitSurface, probes: Probes, seed: int = 0) -> 
         # Divided by the typical gradient: the step is scale-free, and H^T H
         # neither overflows nor underflows for f scaled by 1e+-200.
         g = surface.grad(x) / scale
-        cols = surface.grad(
-            np.concatenate([x + s * h * eye[k] for k in range(3) for s in (1.0, -1.0)])
-        ).reshape(3, 2, len(x), 3) / scale
+        cols = (
+            surface.grad(
+                np.concatenate([x + s * h * eye[k] for k in range(3) for s in (1.0, -1.0)])
+            ).reshape(3, 2, len(x), 3)
+            / scale
+        )
         H = np.stack([(cols[k, 0] - cols[k, 1]) / (2 * h) for k in range(3)], axis=2)
         HtH = np.einsum("nji,njk->nik", H, H)
         mu = SINGULAR_DAMPING * np.maximum(np.einsum("nii->n", HtH), TINY)
