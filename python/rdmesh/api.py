@@ -41,8 +41,10 @@ def mesh_surface(
         field mapping ``(N, 3)`` points to ``N`` positive radii. Default
         (None): a twentieth of the bounding radius for Boissonnat-Oudot; no
         size bound at all for the topological-ball method, which then returns
-        the coarsest mesh it certifies. Below 0.1 times the local feature
-        size the output is homeomorphic to the surface (Boissonnat-Oudot).
+        the coarsest mesh on which every test held. Below 0.1 times the local
+        feature size the output is homeomorphic to the surface
+        (Boissonnat-Oudot), provided the sampled crossing search found every
+        crossing.
     distance_bound : float, optional
         Largest distance between a facet's circumcentre and its surface
         centre (an approximation bound); None disables it.
@@ -51,10 +53,10 @@ def mesh_surface(
         Non_manifold_tag: what the final refinement stage repairs.
     method : {"boissonnat-oudot", "topological-ball"}
         The refinement algorithm. "topological-ball" (Cheng-Dey-Ramos-Ray)
-        first refines until the sample has the topological ball property
-        (every Voronoi edge, facet and cell meets the surface in a ball; see
-        :mod:`rdmesh.topology.tests`), so the topology is right at any size, then
-        applies the criteria while keeping the property. It seeds with the
+        first refines until the topological-ball tests hold (every Voronoi
+        edge, facet and cell meets the surface in a ball; see
+        :mod:`rdmesh.topology.tests`; some tests are sampled), then applies
+        the criteria while keeping them. It seeds with the
         critical points of a random height function as well as the grid.
         Points driven by topology are refused below 0.01 x radius_bound, or
         without a size bound below 1e-4 x the bounding radius; refused points
@@ -65,8 +67,8 @@ def mesh_surface(
     max_vertices : int, optional
         Stop when the mesh would exceed this many samples.
     time_limit : float, optional
-        Stop after about this many seconds: a round that the last round's
-        length says would end past the limit is not started.
+        Stop after about this many seconds: a round predicted (from the last
+        round, per inserted point) to end past the limit is not started.
     seed_resolution : int, default 64
         Cells across the bounding ball of the grid scan that finds the
         components; components thinner than a cell may be missed.

@@ -46,11 +46,15 @@ class SurfaceMesh:
         same fields for every method, computed on the final samples:
 
         ``tbp_holds``
-            True only when every topological-ball test held, nothing was left
-            unresolved and the run completed (see :attr:`topology_certified`).
+            True when every topological-ball test held (some only on samples),
+            nothing was left unresolved and the run completed.
+        ``certified``
+            True only when, besides, every test is proven
+            (:attr:`topology_certified`).
         ``tests``
             Per test (``voronoi_edge``, ``voronoi_facet``, ``voronoi_loop``,
-            ``disk``, ``isolated``, ``silhouette``): ``held``, ``violations`` at the end,
+            ``disk``, ``isolated``, ``silhouette``): ``held``, ``level``
+            (``proven``, ``sampled``, ``failed`` or ``not tested``), ``violations`` at the end,
             ``repaired`` (points inserted to repair it), ``basis`` ("exact",
             "sampled", ...) and what it checks.
         ``components``, ``euler``, ``closed_manifold``
@@ -96,8 +100,14 @@ class SurfaceMesh:
 
     @property
     def topology_certified(self) -> bool:
-        """True when the topology report claims the topological ball property."""
-        return bool(self.report.get("tbp_holds", False))
+        """True only when every topological-ball test is proven (report ``certified``).
+
+        Tests that held only on samples (see each test's ``level`` in
+        :attr:`report`) do not certify: today the crossing search, the loop
+        test and the silhouette test are sampled, so this is False for every
+        surface; ``report["tbp_holds"]`` says whether all tests held.
+        """
+        return bool(self.report.get("certified", False))
 
     @property
     def ball_radii(self) -> np.ndarray:
@@ -192,9 +202,15 @@ class SurfaceMesh:
             lines.append(f"unresolved refinement points: {len(self.unresolved)}")
         if self.report:
             failed = [k for k, t in self.report["tests"].items() if t["held"] is False]
+            if self.report.get("certified"):
+                held = "certified"
+            elif self.report["tbp_holds"]:
+                held = "held on samples, NOT certified"
+            else:
+                held = "NOT certified"
             lines.append(
                 "topological ball property: "
-                + ("holds" if self.report["tbp_holds"] else "NOT certified")
+                + held
                 + (f" (failed: {', '.join(failed)})" if failed else "")
             )
         return "\n".join(lines)

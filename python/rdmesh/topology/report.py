@@ -99,6 +99,7 @@ def topology_report(
         basis, what = _BASIS[v.kind]
         tests[v.kind] = {
             "held": v.count == 0,
+            "level": _level(v.count == 0, basis),
             "violations": v.count,
             "repaired": int(repaired.get(v.kind, 0)),
             "basis": basis,
@@ -109,6 +110,7 @@ def topology_report(
         if kind not in tests:
             tests[kind] = {
                 "held": None,
+                "level": "not tested",
                 "violations": None,
                 "repaired": 0,
                 "basis": "not tested (time limit)" if quick else "not tested",
@@ -131,6 +133,7 @@ def topology_report(
     report: dict[str, Any] = {
         "method": method,
         "tbp_holds": holds,
+        "certified": holds and all(t["level"] == "proven" for t in tests.values()),
         "tests": tests,
         "components": len(chi),
         "euler": chi,
@@ -166,6 +169,13 @@ def topology_report(
     return report
 
 
+def _level(held: bool, basis: str) -> str:
+    """``proven`` (held, by an exact test), ``sampled`` (held on samples) or ``failed``."""
+    if not held:
+        return "failed"
+    return "proven" if basis == "exact" else "sampled"
+
+
 def _statement(rep: dict[str, Any]) -> str:
     """Plain wording of what the report certifies and what rests on sampling."""
     tests = rep["tests"]
@@ -176,10 +186,14 @@ def _statement(rep: dict[str, Any]) -> str:
         f"probes on the surface at spacing about {spacing:.3g}" if spacing else "no probes"
     )
     lines = []
-    if rep["tbp_holds"]:
+    if rep["certified"]:
+        lines.append("Every topological-ball test is proven: the topology is certified.")
+    elif rep["tbp_holds"]:
+        sampled = [k for k, t in tests.items() if t["level"] == "sampled"]
         lines.append(
-            "Every topological-ball test held on the final samples, so the mesh is "
-            "homeomorphic to the surface provided the sampled tests are right: "
+            "The topology is NOT certified: every topological-ball test held, but "
+            f"{', '.join(sampled)} held only on samples (no interval arithmetic). The mesh "
+            "is homeomorphic to the surface provided the sampled tests are right: "
             "exact (combinatorial): every complex edge has 2 triangles (Voronoi-facet "
             "crossing count), every sample has one disk of triangles, no sample lacks "
             "triangles; sampled: one transversal crossing per Voronoi edge (edge "
