@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import ast
 import math
 import subprocess
 import sys
 import textwrap
 import threading
 from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 import pytest
+import rdmesh
 from rdmesh import _rdt
 
 try:  # not in the test extras (yet): only the property-based test needs it
@@ -534,3 +537,70 @@ else:  # pragma: no cover
 
     def test_select_independent_matches_exact_greedy():
         pytest.skip("hypothesis is not installed")
+
+
+# -- the type stub ------------------------------------------------------------------
+
+
+def _split_top(text):
+    """Split at commas outside brackets."""
+    parts, depth, start = [], 0, 0
+    for i, ch in enumerate(text):
+        if ch in "[(":
+            depth += 1
+        elif ch in "])":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            parts.append(text[start:i].strip())
+            start = i + 1
+    if text[start:].strip():
+        parts.append(text[start:].strip())
+    return parts
+
+
+def _runtime_signature(func):
+    """(parameter names, {name: default}) from pybind11's docstring signature."""
+    head = func.__doc__.splitlines()[0]
+    inner = head[head.index("(") + 1 : head.rindex(") ->")]
+    names, defaults = [], {}
+    for part in _split_top(inner):
+        name = part.split(":")[0].strip()
+        names.append(name)
+        if " = " in part:
+            defaults[name] = ast.literal_eval(part.rsplit(" = ", 1)[1])
+    return names, defaults
+
+
+def _stub_signature(node):
+    args = node.args.args
+    names = [a.arg for a in args]
+    values = [ast.literal_eval(d) for d in node.args.defaults]
+    return names, dict(zip(names[len(names) - len(values) :], values, strict=True))
+
+
+def test_stub_matches_the_bindings():
+    stub = ast.parse(Path(rdmesh.__file__).with_name("_rdt.pyi").read_text())
+    public = {n for n in dir(_rdt) if not n.startswith("__")}
+    seen = set()
+    for node in stub.body:
+        if isinstance(node, ast.AnnAssign):
+            name = node.target.id
+            seen.add(name)
+            assert name in public and not callable(getattr(_rdt, name))
+        elif isinstance(node, ast.FunctionDef):
+            seen.add(node.name)
+            assert _stub_signature(node) == _runtime_signature(getattr(_rdt, node.name))
+        elif isinstance(node, ast.ClassDef):
+            seen.add(node.name)
+            cls = getattr(_rdt, node.name)
+            members = {n for n in dir(cls) if not n.startswith("_")} | {"__init__"}
+            stubbed = set()
+            for item in node.body:
+                stubbed.add(item.name)
+                if any(getattr(d, "id", None) == "property" for d in item.decorator_list):
+                    assert isinstance(getattr(cls, item.name), property)
+                    continue
+                names, defaults = _runtime_signature(getattr(cls, item.name))
+                assert _stub_signature(item) == (["self", *names[1:]], defaults), item.name
+            assert stubbed == members
+    assert seen == public
