@@ -1,4 +1,6 @@
-// pybind11 bindings: array conversion, GIL release, exception translation.
+// pybind11 bindings: array conversion, GIL release, locking, exception
+// translation.
+#include <pybind11/gil_safe_call_once.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
@@ -7,8 +9,10 @@
 #include <CGAL/version.h>
 
 #include <cmath>
-#include <cstring>
+#include <memory>
+#include <mutex>
 #include <string>
+#include <utility>
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -25,21 +29,43 @@ using InArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using IdArray = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>;
 using FlagArray = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>;
 
+// Copies an array's data while the GIL is held: once it is released, other
+// Python threads may write to, resize or free the array.
+template <typename T, typename A>
+std::vector<T> copy_of(const A& a) {
+  return std::vector<T>(a.data(), a.data() + a.size());
+}
+
 // Copies an (n, 3) array while the GIL is held.
 std::vector<double> rows3(const InArray& a, const char* what) {
   if (a.ndim() != 2 || a.shape(1) != 3)
     throw std::invalid_argument(std::string(what) + " must have shape (n, 3)");
-  std::vector<double> out(static_cast<std::size_t>(a.size()));
-  if (!out.empty()) std::memcpy(out.data(), a.data(), out.size() * sizeof(double));
-  return out;
+  return copy_of<double>(a);
 }
 
-// Hands the vector's buffer to numpy without a copy (the vector is left empty).
+// Runs fn() on the core with the GIL released and the core's lock held.  The
+// lock is taken only after the GIL is released and dropped before the GIL is
+// taken back, so no thread waits for one while holding the other (no
+// deadlock); a second thread using the same core waits for its turn.  fn must
+// not touch Python objects.
+template <typename Fn>
+decltype(auto) locked(RestrictedDelaunay& self, Fn&& fn) {
+  py::gil_scoped_release release;
+  std::lock_guard<std::mutex> lock(self.mutex());
+  return fn();
+}
+
+// Hands the vector's buffer to numpy without a copy (the vector is left
+// empty).  The unique_ptr owns the buffer until the capsule does, so a throw
+// from either constructor frees it.
 template <typename T>
 py::array_t<T> to_numpy(std::vector<T>& v, std::vector<py::ssize_t> shape) {
-  auto* owner = new std::vector<T>(std::move(v));
-  py::capsule free_when_done(owner, [](void* p) { delete static_cast<std::vector<T>*>(p); });
-  return py::array_t<T>(shape, owner->data(), free_when_done);
+  auto owner = std::make_unique<std::vector<T>>(std::move(v));
+  T* data = owner->data();
+  py::capsule free_when_done(owner.get(),
+                             [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  owner.release();
+  return py::array_t<T>(std::move(shape), data, free_when_done);
 }
 
 py::tuple facet_pair(rdmesh::ChangedFacets& f) {
@@ -86,15 +112,33 @@ PYBIND11_MODULE(_rdt, m) {
   CGAL::set_warning_handler(silent_handler);
   CGAL::set_error_behaviour(CGAL::THROW_EXCEPTION);
 
-  static py::object cgal_error =
-      py::module_::import("rdmesh._errors").attr("CGALError");
+  // A plain static py::object would be released after the interpreter is
+  // gone; this storage is never destroyed.
+  PYBIND11_CONSTINIT static py::gil_safe_call_once_and_store<py::object> cgal_error;
+  cgal_error.call_once_and_store_result(
+      [] { return py::module_::import("rdmesh._errors").attr("CGALError"); });
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const CGAL::Failure_exception& e) {
-      PyErr_SetString(cgal_error.ptr(), e.what());
+      py::set_error(cgal_error.get_stored(), e.what());
     }
   });
+
+  // Facet flag bits (rdt.hpp), for update_facets and facets(mask).
+  m.attr("RESTRICTED") = static_cast<int>(rdmesh::RESTRICTED);
+  m.attr("BAD") = static_cast<int>(rdmesh::BAD);
+  m.attr("OUTWARD") = static_cast<int>(rdmesh::OUTWARD);
+  m.attr("TOPO") = static_cast<int>(rdmesh::TOPO);
+
+  m.def(
+      "_fail_allocation_for_testing",
+      [](std::int64_t n) { return rdmesh::fail_countdown_for_testing.exchange(n); },
+      py::arg("n"),
+      "Test hook: the n-th fault point from now raises MemoryError (n <= 0: "
+      "none); returns the previous count. Fault points: each facet "
+      "changed_facets appends or cell it gathers, each update_facets, and the "
+      "conversion of changed_facets' result.");
 
   m.def(
       "sample_segments",
@@ -108,18 +152,19 @@ PYBIND11_MODULE(_rdt, m) {
           throw std::invalid_argument("apex must have shape (k, 3) matching seg");
         if (rho.ndim() != 1 || rho.shape(0) != k)
           throw std::invalid_argument("rho must have shape (k,) matching seg");
-        const double* S = seg.data();
-        const double* A = apex.data();
-        const double* Rh = rho.data();
-        for (py::ssize_t i = 0; i < 6 * k; ++i)
-          if (!std::isfinite(S[i]))
-            throw std::invalid_argument("seg has a non-finite coordinate");
+        // Checked after copying: the copies are what is used.
+        const std::vector<double> S = copy_of<double>(seg), A = copy_of<double>(apex),
+                                  Rh = copy_of<double>(rho);
+        for (double x : S)
+          if (!std::isfinite(x)) throw std::invalid_argument("seg has a non-finite coordinate");
+        for (double x : A)
+          if (!std::isfinite(x)) throw std::invalid_argument("apex has a non-finite coordinate");
         rdmesh::SegmentSamples out;
         {
           py::gil_scoped_release release;
           out.reserve(static_cast<std::size_t>(k), 6);
           for (py::ssize_t i = 0; i < k; ++i)
-            out.add(S + 6 * i, S + 6 * i + 3, A + 3 * i, Rh[i], spec);
+            out.add(&S[6 * i], &S[6 * i + 3], &A[3 * i], Rh[i], spec);
         }
         return samples_tuple(out);
       },
@@ -143,11 +188,8 @@ PYBIND11_MODULE(_rdt, m) {
           "insert",
           [](RestrictedDelaunay& self, const InArray& points) {
             const std::vector<double> xyz = rows3(points, "points");
-            std::vector<std::int64_t> ids;
-            {
-              py::gil_scoped_release release;
-              ids = self.insert(xyz.data(), xyz.size() / 3);
-            }
+            std::vector<std::int64_t> ids =
+                locked(self, [&] { return self.insert(xyz.data(), xyz.size() / 3); });
             return to_numpy(ids, {static_cast<py::ssize_t>(ids.size())});
           },
           py::arg("points"),
@@ -158,12 +200,16 @@ PYBIND11_MODULE(_rdt, m) {
           [](RestrictedDelaunay& self, std::size_t max_facets, double per_radius,
              std::int64_t min_intervals, std::int64_t max_intervals) {
             const auto spec = sampling_spec(per_radius, min_intervals, max_intervals);
-            rdmesh::ChangedFacets f;
-            {
-              py::gil_scoped_release release;
-              f = self.changed_facets(max_facets, spec);
+            rdmesh::ChangedFacets f =
+                locked(self, [&] { return self.changed_facets(max_facets, spec); });
+            try {
+              rdmesh::fault_point_for_testing();
+              return facet_quad(f);
+            } catch (...) {
+              // The chunk never reaches Python: let the next call report it.
+              locked(self, [&] { self.withdraw_chunk(f.chunk); });
+              throw;
             }
-            return facet_quad(f);
           },
           py::arg("max_facets") = 0, py::arg("per_radius") = 1.0,
           py::arg("min_intervals") = 3, py::arg("max_intervals") = 64,
@@ -172,29 +218,29 @@ PYBIND11_MODULE(_rdt, m) {
           "Returns ((k, 3) sorted "
           "vertex ids, (k, 2, 3) clipped dual segments, (k, 2) indices of the "
           "segment ends into (u, 3) distinct end points, (k,) facet "
-          "circumradii, samples), samples as from sample_segments.")
+          "circumradii, samples), samples as from sample_segments. After an "
+          "exception the next call hands out the same facets.")
       .def(
           "update_facets",
           [](RestrictedDelaunay& self, const FlagArray& flags, const InArray& centres) {
             const std::vector<double> xyz = rows3(centres, "centres");
             if (flags.ndim() != 1 || flags.shape(0) * 3 != static_cast<py::ssize_t>(xyz.size()))
               throw std::invalid_argument("flags must have shape (k,) matching centres (k, 3)");
-            std::vector<std::uint8_t> fl(flags.data(), flags.data() + flags.shape(0));
-            py::gil_scoped_release release;
-            self.update_facets(fl.data(), xyz.data(), fl.size());
+            const std::vector<std::uint8_t> fl = copy_of<std::uint8_t>(flags);
+            locked(self, [&] { self.update_facets(fl.data(), xyz.data(), fl.size()); });
           },
-          py::arg("flags"), py::arg("centres"))
-      .def("restart_round", &RestrictedDelaunay::restart_round,
-           "Forget chunks not yet updated; the next changed_facets calls hand "
-           "out the whole current round again.")
+          py::arg("flags"), py::arg("centres"),
+          "Set the flags (k,) and surface centres (k, 3) of the oldest chunk "
+          "from changed_facets not yet updated, in its order.")
+      .def(
+          "restart_round",
+          [](RestrictedDelaunay& self) { locked(self, [&] { self.restart_round(); }); },
+          "Forget chunks not yet updated; the next changed_facets calls hand "
+          "out the whole current round again.")
       .def(
           "facets",
-          [](const RestrictedDelaunay& self, std::uint8_t mask) {
-            rdmesh::FacetList f;
-            {
-              py::gil_scoped_release release;
-              f = self.facets_with(mask);
-            }
+          [](RestrictedDelaunay& self, std::uint8_t mask) {
+            rdmesh::FacetList f = locked(self, [&] { return self.facets_with(mask); });
             const auto k = static_cast<py::ssize_t>(f.tri.size() / 3);
             return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.centre, {k, 3}),
                                   to_numpy(f.flags, {k}));
@@ -205,39 +251,29 @@ PYBIND11_MODULE(_rdt, m) {
           "flag bits).")
       .def(
           "all_facets",
-          [](const RestrictedDelaunay& self) {
-            rdmesh::ChangedFacets f;
-            {
-              py::gil_scoped_release release;
-              f = self.all_facets();
-            }
+          [](RestrictedDelaunay& self) {
+            rdmesh::ChangedFacets f = locked(self, [&] { return self.all_facets(); });
             return facet_pair(f);
           },
           "Every facet whose clipped dual meets the ball, as changed_facets.")
       .def(
           "is_facet",
-          [](const RestrictedDelaunay& self, const IdArray& tri) {
+          [](RestrictedDelaunay& self, const IdArray& tri) {
             if (tri.ndim() != 2 || tri.shape(1) != 3)
               throw std::invalid_argument("tri must have shape (k, 3)");
-            std::vector<std::int64_t> t(tri.data(), tri.data() + tri.size());
-            std::vector<std::uint8_t> out;
-            {
-              py::gil_scoped_release release;
-              out = self.is_facet(t.data(), t.size() / 3);
-            }
+            const std::vector<std::int64_t> t = copy_of<std::int64_t>(tri);
+            std::vector<std::uint8_t> out =
+                locked(self, [&] { return self.is_facet(t.data(), t.size() / 3); });
             return to_numpy(out, {static_cast<py::ssize_t>(out.size())}).attr("astype")("bool");
           },
           py::arg("tri"))
       .def(
           "neighbours",
-          [](const RestrictedDelaunay& self, const IdArray& ids) {
+          [](RestrictedDelaunay& self, const IdArray& ids) {
             if (ids.ndim() != 1) throw std::invalid_argument("ids must have shape (k,)");
-            std::vector<std::int64_t> v(ids.data(), ids.data() + ids.size());
+            const std::vector<std::int64_t> v = copy_of<std::int64_t>(ids);
             std::vector<std::int64_t> offsets, adj;
-            {
-              py::gil_scoped_release release;
-              self.neighbours(v.data(), v.size(), offsets, adj);
-            }
+            locked(self, [&] { self.neighbours(v.data(), v.size(), offsets, adj); });
             return py::make_tuple(
                 to_numpy(offsets, {static_cast<py::ssize_t>(offsets.size())}),
                 to_numpy(adj, {static_cast<py::ssize_t>(adj.size())}));
@@ -245,15 +281,12 @@ PYBIND11_MODULE(_rdt, m) {
           py::arg("ids"), "Delaunay neighbours of samples as CSR (offsets, ids).")
       .def(
           "voronoi_facets",
-          [](const RestrictedDelaunay& self, const IdArray& edges) {
+          [](RestrictedDelaunay& self, const IdArray& edges) {
             if (edges.ndim() != 2 || edges.shape(1) != 2)
               throw std::invalid_argument("edges must have shape (m, 2)");
-            std::vector<std::int64_t> e(edges.data(), edges.data() + edges.size());
-            rdmesh::VoronoiFacets v;
-            {
-              py::gil_scoped_release release;
-              v = self.voronoi_facets(e.data(), e.size() / 2);
-            }
+            const std::vector<std::int64_t> e = copy_of<std::int64_t>(edges);
+            rdmesh::VoronoiFacets v =
+                locked(self, [&] { return self.voronoi_facets(e.data(), e.size() / 2); });
             const auto total = static_cast<py::ssize_t>(v.cell.size());
             return py::make_tuple(
                 to_numpy(v.offsets, {static_cast<py::ssize_t>(v.offsets.size())}),
@@ -269,35 +302,43 @@ PYBIND11_MODULE(_rdt, m) {
           "Raises ValueError for ids out of range or pairs that are not edges.")
       .def(
           "delaunay_edges",
-          [](const RestrictedDelaunay& self, const py::object& ids) {
-            std::vector<std::int64_t> v, out;
+          [](RestrictedDelaunay& self, const py::object& ids) {
+            std::vector<std::int64_t> v;
             const bool all = ids.is_none();
             if (!all) {
               IdArray a = ids.cast<IdArray>();
               if (a.ndim() != 1) throw std::invalid_argument("ids must have shape (k,)");
-              v.assign(a.data(), a.data() + a.size());
+              v = copy_of<std::int64_t>(a);
             }
-            {
-              py::gil_scoped_release release;
-              out = self.delaunay_edges(all ? nullptr : v.data(), v.size());
-            }
+            std::vector<std::int64_t> out = locked(
+                self, [&] { return self.delaunay_edges(all ? nullptr : v.data(), v.size()); });
             return to_numpy(out, {static_cast<py::ssize_t>(out.size() / 2), 2});
           },
           py::arg("ids") = py::none(),
           "Delaunay edges between samples as sorted pairs (k, 2), in increasing "
           "order: the edges of the cells incident to the samples ids, or all "
           "edges when ids is None.")
-      .def("samples",
-           [](const RestrictedDelaunay& self) {
-             std::vector<double> s = self.samples();
-             return to_numpy(s, {static_cast<py::ssize_t>(s.size() / 3), 3});
-           })
-      .def_property_readonly("number_of_samples", &RestrictedDelaunay::number_of_samples)
-      .def_property_readonly("number_of_cells", &RestrictedDelaunay::number_of_cells)
-      .def("check", [](const RestrictedDelaunay& self) {
-        py::gil_scoped_release release;
-        self.check();
-      });
+      .def(
+          "samples",
+          [](RestrictedDelaunay& self) {
+            std::vector<double> s = locked(self, [&] { return self.samples(); });
+            return to_numpy(s, {static_cast<py::ssize_t>(s.size() / 3), 3});
+          },
+          "The samples (n, 3), row i the sample with id i.")
+      .def_property_readonly(
+          "number_of_samples",
+          [](RestrictedDelaunay& self) {
+            return locked(self, [&] { return self.number_of_samples(); });
+          })
+      .def_property_readonly(
+          "number_of_cells",
+          [](RestrictedDelaunay& self) {
+            return locked(self, [&] { return self.number_of_cells(); });
+          })
+      .def(
+          "check", [](RestrictedDelaunay& self) { locked(self, [&] { self.check(); }); },
+          "Raise RuntimeError unless the triangulation is Delaunay and the facet "
+          "flags are consistent.");
 
   m.def(
       "select_independent",

@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
 
+#include <CGAL/Exact_rational.h>
 #include <CGAL/Spatial_sort_traits_adapter_3.h>
 #include <CGAL/hilbert_sort.h>
 #include <CGAL/property_map.h>
@@ -26,6 +29,14 @@ bool lex_less(const Vec3& a, const Vec3& b) {
   return std::lexicographical_compare(a.begin(), a.end(), b.begin(), b.end());
 }
 
+// Grows v's capacity to hold `more` further elements, geometrically (an exact
+// reserve per call would copy v every call): push_back cannot throw after it.
+template <typename T>
+void reserve_more(std::vector<T>& v, std::size_t more) {
+  const std::size_t need = v.size() + more;
+  if (v.capacity() < need) v.reserve(std::max(need, 2 * v.capacity()));
+}
+
 }  // namespace
 
 RestrictedDelaunay::RestrictedDelaunay(const std::array<double, 3>& centre,
@@ -37,13 +48,27 @@ RestrictedDelaunay::RestrictedDelaunay(const std::array<double, 3>& centre,
   // Cube corners at 4R: inside the ball every point is nearer to any sample
   // than to any dummy, so Vor(P + dummies) = Vor(P) there and no dual is a ray.
   const double h = 4.0 * radius;
+  std::array<Point, 8> corners;
   for (int k = 0; k < 8; ++k) {
-    Point p(centre[0] + ((k & 1) ? h : -h), centre[1] + ((k & 2) ? h : -h),
-            centre[2] + ((k & 4) ? h : -h));
+    const double p[3] = {centre[0] + ((k & 1) ? h : -h),
+                         centre[1] + ((k & 2) ? h : -h),
+                         centre[2] + ((k & 4) ? h : -h)};
+    if (!finite3(p))
+      throw std::invalid_argument(
+          "bounding sphere too large: 4 x radius from the centre overflows");
+    corners[k] = Point(p[0], p[1], p[2]);
+  }
+  cell_epoch = 0;  // not a stale value from another object's insert
+  for (const Point& p : corners) {
     Vertex_handle v = dt_.insert(p);
     v->info().id = -1;
     hint_ = v;
   }
+  // Everything else assumes a 3D triangulation with no sample on the hull.
+  if (dt_.dimension() != 3 || dt_.number_of_vertices() != 8)
+    throw std::invalid_argument(
+        "bounding sphere radius too small for its centre: the corner points "
+        "at 4 x radius are not distinct in double precision");
 }
 
 bool RestrictedDelaunay::is_dummy(Vertex_handle v) const {
@@ -52,7 +77,7 @@ bool RestrictedDelaunay::is_dummy(Vertex_handle v) const {
 
 std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
                                                      std::size_t n) {
-  const double limit2 = 4.0 * radius_ * radius_;
+  const double limit = 2.0 * radius_;
   std::vector<Point> pts;
   pts.reserve(n);
   for (std::size_t k = 0; k < n; ++k) {
@@ -60,16 +85,12 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
     if (!finite3(p))
       throw std::invalid_argument("point " + std::to_string(k) +
                                   " has a non-finite coordinate");
-    const double dx = p[0] - c0_[0], dy = p[1] - c0_[1], dz = p[2] - c0_[2];
-    if (dx * dx + dy * dy + dz * dz > limit2)
+    // hypot: squares of far points would overflow.
+    if (std::hypot(p[0] - c0_[0], p[1] - c0_[1], p[2] - c0_[2]) > limit)
       throw std::invalid_argument("point " + std::to_string(k) +
                                   " lies outside twice the bounding radius");
     pts.emplace_back(p[0], p[1], p[2]);
   }
-  // Cell handles of an unfinished round die with the insertion: report the
-  // whole neighbourhood of that round's vertices again next round.
-  restart_round();
-
   std::vector<std::size_t> order(n);
   for (std::size_t k = 0; k < n; ++k) order[k] = k;
   using Map = CGAL::Pointer_property_map<Point>::type;
@@ -77,8 +98,15 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
   // hilbert_sort, unlike spatial_sort, draws no random numbers.
   CGAL::hilbert_sort(order.begin(), order.end(),
                      Traits(CGAL::make_property_map(pts)));
-
   std::vector<std::int64_t> ids(n);
+
+  // Cell handles of an unfinished round die with the insertion: report the
+  // whole neighbourhood of that round's vertices again next round.
+  restart_round();
+  // So that a vertex in the triangulation is always a listed sample, even
+  // when dt_.insert throws half-way (the points before it stay inserted).
+  reserve_more(samples_, n);
+  reserve_more(last_new_, n);
   cell_epoch = ++epoch_;
   for (std::size_t k : order) {
     Vertex_handle v = dt_.insert(pts[k], hint_);
@@ -93,8 +121,7 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
   return ids;
 }
 
-const std::array<double, 3>& RestrictedDelaunay::circumcentre(
-    Cell_handle c) const {
+const std::array<double, 3>& RestrictedDelaunay::circumcentre(Cell_handle c) {
   CellInfo& info = c->info();
   if (std::isnan(info.cc[0])) {
     // Filtered: doubles when certified, exact construction otherwise.
@@ -128,17 +155,19 @@ bool RestrictedDelaunay::clip(Vec3& a, Vec3& b) const {
 }
 
 void RestrictedDelaunay::mark_fresh(Cell_handle c) {
+  // Listed first: if that throws, the cell is not marked either.
+  fault_point_for_testing();
+  fresh_.push_back(c);
   CellInfo& info = c->info();
   info.stamp = round_;
-  info.order = static_cast<std::int32_t>(fresh_.size());
+  info.order = static_cast<std::int32_t>(fresh_.size() - 1);
   // Facets shared with a cell gathered earlier are that cell's to report
-  // (and may be being updated right now); the others are this cell's.
+  // (and may be updated already); the others are this cell's.
   for (int i = 0; i < 4; ++i)
     if (c->neighbor(i)->info().stamp != round_) {
       info.flags[i] = 0;
       info.centre[i] = -1;
     }
-  fresh_.push_back(c);
 }
 
 bool RestrictedDelaunay::gather_more() {
@@ -154,10 +183,13 @@ bool RestrictedDelaunay::gather_more() {
   } else {
     while (vertex_cursor_ < round_vertices_.size() && fresh_.size() == before) {
       around_.clear();
-      dt_.incident_cells(round_vertices_[vertex_cursor_++],
+      dt_.incident_cells(round_vertices_[vertex_cursor_],
                          std::back_inserter(around_));
       for (Cell_handle c : around_)
         if (c->info().stamp != round_) mark_fresh(c);
+      // Only now: after a throw above, the star is gathered again (cells
+      // already marked are skipped).
+      ++vertex_cursor_;
     }
     gathered_all_ = vertex_cursor_ == round_vertices_.size();
   }
@@ -172,8 +204,15 @@ void RestrictedDelaunay::compact_centres() {
   // Restricted facets are about two per sample; entries of destroyed cells
   // pile up otherwise.
   if (centres_.size() / 3 < 8 * samples_.size() + 4096) return;
+  // Counted first, so that the only allocation comes before cells change.
+  std::size_t live = 0;
+  for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c)
+    for (int i = 0; i < 4; ++i) {
+      const std::uint8_t fl = c->info().flags[i];
+      live += c->info().centre[i] >= 0 && (fl & RESTRICTED) && (fl & OUTWARD);
+    }
   std::vector<double> kept;
-  kept.reserve(3 * (4 * samples_.size() + 1024));
+  kept.reserve(3 * live);
   for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
     CellInfo& info = c->info();
     for (int i = 0; i < 4; ++i) {
@@ -196,26 +235,38 @@ void RestrictedDelaunay::compact_centres() {
   centres_.swap(kept);
 }
 
+void RestrictedDelaunay::reset_end_stamps() {
+  // Once per 2^31 calls: a stamp must not come round again while a cell
+  // still carries it.
+  for (auto c = dt_.all_cells_begin(); c != dt_.all_cells_end(); ++c)
+    c->info().end_stamp = -1;
+  call_ = 0;
+  voronoi_call_ = 0;
+}
+
+void RestrictedDelaunay::start_round() {
+  // Cells created since the last round: exactly those around new vertices,
+  // gathered chunk by chunk.  No chunk is pending at a round's start.
+  compact_centres();  // may throw; nothing below does
+  ++round_;
+  fresh_.clear();
+  cursor_ = 0;
+  vertex_cursor_ = 0;
+  round_vertices_.swap(last_new_);
+  last_new_.clear();
+  round_from_ = report_from_;
+  report_from_ = epoch_ + 1;
+  // Visiting the stars of many vertices costs more than one scan of all
+  // cells in memory order (measured at 100k samples).
+  scan_ = 32 * round_vertices_.size() > dt_.number_of_cells();
+  if (scan_) scan_it_ = dt_.finite_cells_begin();
+  gathered_all_ = false;
+}
+
 ChangedFacets RestrictedDelaunay::changed_facets(
     std::size_t max_facets, const SegmentSampling& sampling) {
-  if (!last_new_.empty()) {
-    // Cells created since the last round: exactly those around new vertices,
-    // gathered chunk by chunk.  No chunk is pending at a round's start.
-    ++round_;
-    compact_centres();
-    fresh_.clear();
-    cursor_ = 0;
-    vertex_cursor_ = 0;
-    round_vertices_.swap(last_new_);
-    last_new_.clear();
-    round_from_ = report_from_;
-    report_from_ = epoch_ + 1;
-    // Visiting the stars of many vertices costs more than one scan of all
-    // cells in memory order (measured at 100k samples).
-    scan_ = 32 * round_vertices_.size() > dt_.number_of_cells();
-    if (scan_) scan_it_ = dt_.finite_cells_begin();
-    gathered_all_ = false;
-  }
+  if (!last_new_.empty()) start_round();
+  if (call_ == std::numeric_limits<std::int32_t>::max()) reset_end_stamps();
   ++call_;
   if (max_facets == 0) max_facets = static_cast<std::size_t>(-1);
 
@@ -243,9 +294,12 @@ ChangedFacets RestrictedDelaunay::changed_facets(
     out.ends.insert(out.ends.end(), p.begin(), p.end());
     return static_cast<std::int64_t>(out.ends.size() / 3 - 1);
   };
+  // The round's progress (cursor_) is committed only at the end, once the
+  // chunk is queued: a throw before that leaves this chunk to the next call.
+  std::size_t cursor = cursor_;
   while (chunk.facets.size() < max_facets) {
-    if (cursor_ == fresh_.size() && !gather_more()) break;
-    Cell_handle c = fresh_[cursor_++];
+    if (cursor == fresh_.size() && !gather_more()) break;
+    Cell_handle c = fresh_[cursor++];
     circumcentre(c);
     for (int i = 0; i < 4; ++i) {
       Cell_handle nb = c->neighbor(i);
@@ -271,6 +325,7 @@ ChangedFacets RestrictedDelaunay::changed_facets(
       }
       const Vec3 a0 = a, b0 = b;
       if (!clip(a, b)) continue;
+      fault_point_for_testing();
       std::sort(t.begin(), t.end());
       out.tri.insert(out.tri.end(), t.begin(), t.end());
       out.seg.insert(out.seg.end(), a.begin(), a.end());
@@ -289,27 +344,41 @@ ChangedFacets RestrictedDelaunay::changed_facets(
     }
   }
   if (!chunk.facets.empty()) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    chunk.begin = cursor_;
+    chunk.serial = serial_ + 1;
     pending_.push_back(std::move(chunk));
+    out.chunk = ++serial_;
   }
+  cursor_ = cursor;
   return out;
+}
+
+void RestrictedDelaunay::withdraw_chunk(std::uint64_t serial) {
+  if (serial == 0 || pending_.empty() || pending_.back().serial != serial)
+    return;
+  // Only insert and restart_round, which clear pending_, move cursor_ back,
+  // so the chunk's cells are still fresh_[begin, cursor_): hand them out
+  // again (cells after them that gave no facet are simply visited again).
+  cursor_ = pending_.back().begin;
+  pending_.pop_back();
 }
 
 void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
                                        const double* centres, std::size_t n) {
-  Chunk chunk;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const std::size_t want = pending_.empty() ? 0 : pending_.front().facets.size();
-    if (n != want)
-      throw std::invalid_argument(
-          "update_facets needs one entry per facet of the oldest chunk from "
-          "changed_facets() not yet updated (expected " + std::to_string(want) +
-          ", got " + std::to_string(n) + "); no insert may come in between");
-    if (n == 0) return;
-    chunk = std::move(pending_.front());
-    pending_.pop_front();
-  }
+  const std::size_t want = pending_.empty() ? 0 : pending_.front().facets.size();
+  if (n != want)
+    throw std::invalid_argument(
+        "update_facets needs one entry per facet of the oldest chunk from "
+        "changed_facets() not yet updated (expected " + std::to_string(want) +
+        ", got " + std::to_string(n) + "); no insert may come in between");
+  if (n == 0) return;
+  // Allocate before writing: a throw leaves the chunk pending, untouched.
+  std::size_t restricted = 0;
+  for (std::size_t k = 0; k < n; ++k) restricted += (flags[k] & RESTRICTED) != 0;
+  reserve_more(centres_, 3 * restricted);
+  fault_point_for_testing();
+  const Chunk chunk = std::move(pending_.front());
+  pending_.pop_front();
   for (std::size_t k = 0; k < n; ++k) {
     const Side& side = chunk.facets[k];
     Cell_handle c = side.c, nb = side.nb;
@@ -332,8 +401,8 @@ void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
 }
 
 void RestrictedDelaunay::restart_round() {
-  std::lock_guard<std::mutex> lock(mutex_);
   if (round_unfinished()) {
+    // If this throws (memory), nothing has changed yet.
     last_new_.insert(last_new_.begin(), round_vertices_.begin(),
                      round_vertices_.end());
     report_from_ = round_from_;
@@ -424,7 +493,7 @@ std::vector<double> RestrictedDelaunay::samples() const {
   return out;
 }
 
-ChangedFacets RestrictedDelaunay::all_facets() const {
+ChangedFacets RestrictedDelaunay::all_facets() {
   ChangedFacets out;
   for (auto f = dt_.finite_facets_begin(); f != dt_.finite_facets_end(); ++f) {
     Cell_handle c = f->first;
@@ -486,21 +555,73 @@ struct CellKeyHash {
   }
 };
 
+std::string number(double x) {
+  std::ostringstream s;
+  s << std::setprecision(17) << x;
+  return s.str();
+}
+
+// Is |p - q| <= r?  Decided exactly.  In doubles d2 and r2 are within 7e-16
+// relative (plus 1e-323 absolute, from underflow) of the true squares, so a
+// difference beyond the bound below has the right sign; near ties, and when
+// a square overflows (the test fails on inf or NaN), rationals decide.
+bool in_closed_ball(const double* p, const double* q, double r) {
+  const double ex = p[0] - q[0], ey = p[1] - q[1], ez = p[2] - q[2];
+  const double d2 = ex * ex + ey * ey + ez * ez, r2 = r * r;
+  const double diff = d2 - r2;
+  if (std::abs(diff) > 1e-15 * (d2 + r2) + 1e-300) return diff < 0.0;
+  using Q = CGAL::Exact_rational;
+  Q e2(0);
+  for (int k = 0; k < 3; ++k) {
+    const Q e = Q(p[k]) - Q(q[k]);
+    e2 += e * e;
+  }
+  return e2 <= Q(r) * Q(r);
+}
+
+// Smallest grid cell for a ball of radius r: s >= r (1 + 2^-10).  The slack
+// keeps the cell keys of two points within r at most one apart despite the
+// rounding of x / s (below 2^-1000 the product would lose precision; any s
+// above 2r does).  Monotone in r; inf when r (1 + 2^-10) overflows.
+double cell_size_for(double r) { return std::max(r + r * 0x1p-10, 0x1p-999); }
+
+// Cell index of coordinate x on a grid of cell size s.  Clamped to +-2^40:
+// x / s may be inf or beyond int64 (extreme centres or radii), and below the
+// clamp it is accurate to 2^-13.  The key stays monotone in x and changes by
+// at most 1 over a distance r, so the 27 cells around a centre still hold
+// every ball that can contain it (clamped cells just hold more balls).
+std::int64_t cell_index(double x, double s) {
+  constexpr double limit = 0x1p40;
+  const double v = std::floor(x / s);
+  if (!(v < limit)) return static_cast<std::int64_t>(limit);
+  if (v < -limit) return -static_cast<std::int64_t>(limit);
+  return static_cast<std::int64_t>(v);
+}
+
 }  // namespace
 
 std::vector<std::int64_t> select_independent(const double* centres,
                                              const double* radii,
                                              std::size_t n) {
   std::vector<std::int64_t> accepted;
-  if (n == 0) return accepted;
+  const char* rule = "; each ball needs a finite centre and a positive radius";
   double rmin = HUGE_VAL;
   for (std::size_t k = 0; k < n; ++k) {
-    if (!finite3(centres + 3 * k) || !std::isfinite(radii[k]) ||
-        !(radii[k] > 0.0))
-      throw std::invalid_argument("ball " + std::to_string(k) +
-                                  " needs a finite centre and a positive radius");
-    rmin = std::min(rmin, radii[k]);
+    const std::string ball = "ball " + std::to_string(k);
+    const double r = radii[k];
+    if (!finite3(centres + 3 * k))
+      throw std::invalid_argument(ball + " has a non-finite centre" + rule);
+    if (!std::isfinite(r))
+      throw std::invalid_argument(ball + " has a non-finite radius (" +
+                                  number(r) + ")" + rule);
+    if (!(r > 0.0))
+      throw std::invalid_argument(ball + (r < 0.0 ? " has a negative radius (" +
+                                                        number(r) + ")"
+                                                  : " has radius 0") +
+                                  rule);
+    rmin = std::min(rmin, r);
   }
+  if (n == 0) return accepted;
   std::vector<std::size_t> order(n);
   for (std::size_t k = 0; k < n; ++k) order[k] = k;
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
@@ -509,26 +630,26 @@ std::vector<std::int64_t> select_independent(const double* centres,
     const double* q = centres + 3 * b;
     return std::lexicographical_compare(p, p + 3, q, q + 3);
   });
-  // Accepted balls live on the level whose cell size s >= r, so a centre
-  // inside one of them is at most one cell away: 27 cells per level.
+  // Grid levels of cell sizes base * 2^l.  Accepted balls live on the first
+  // level whose cells fit them, so a centre inside one of them is at most
+  // one cell away: 27 cells per level.  At most about 2100 levels (from
+  // 2^-999 to inf).
   using Grid = std::unordered_map<CellKey, std::vector<std::size_t>, CellKeyHash>;
   std::vector<Grid> levels;
   std::vector<double> sizes;
   std::vector<std::size_t> active;  // levels holding a ball
   auto level_of = [&](double r) {
-    int l = 0;
-    double s = rmin;
-    while (s < r) { s *= 2.0; ++l; }
-    while (static_cast<int>(levels.size()) <= l) {
-      sizes.push_back(rmin * std::ldexp(1.0, static_cast<int>(levels.size())));
-      levels.emplace_back();
+    const double need = cell_size_for(r);
+    for (std::size_t l = 0;; ++l) {
+      if (l == sizes.size()) {
+        sizes.push_back(l == 0 ? cell_size_for(rmin) : 2.0 * sizes.back());
+        levels.emplace_back();
+      }
+      if (sizes[l] >= need) return l;
     }
-    return l;
   };
   auto key_of = [](const double* p, double s) {
-    return CellKey{static_cast<std::int64_t>(std::floor(p[0] / s)),
-                   static_cast<std::int64_t>(std::floor(p[1] / s)),
-                   static_cast<std::int64_t>(std::floor(p[2] / s))};
+    return CellKey{cell_index(p[0], s), cell_index(p[1], s), cell_index(p[2], s)};
   };
   for (std::size_t k : order) {
     const double* p = centres + 3 * k;
@@ -541,20 +662,17 @@ std::vector<std::int64_t> select_independent(const double* centres,
           for (int dz = -1; dz <= 1 && free; ++dz) {
             auto it = levels[l].find({base.x + dx, base.y + dy, base.z + dz});
             if (it == levels[l].end()) continue;
-            for (std::size_t a : it->second) {
-              const double* q = centres + 3 * a;
-              const double ex = p[0] - q[0], ey = p[1] - q[1], ez = p[2] - q[2];
-              if (ex * ex + ey * ey + ez * ez <= radii[a] * radii[a]) {
+            for (std::size_t a : it->second)
+              if (in_closed_ball(p, centres + 3 * a, radii[a])) {
                 free = false;
                 break;
               }
-            }
           }
     }
     if (!free) continue;
     accepted.push_back(static_cast<std::int64_t>(k));
-    const int l = level_of(radii[k]);
-    if (levels[l].empty()) active.push_back(static_cast<std::size_t>(l));
+    const std::size_t l = level_of(radii[k]);
+    if (levels[l].empty()) active.push_back(l);
     levels[l][key_of(p, sizes[l])].push_back(k);
   }
   return accepted;

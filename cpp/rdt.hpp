@@ -5,13 +5,19 @@
 // finite segment.  Per-facet restricted data (flags, surface centre) lives in
 // the cells, as in CGAL's Surface_mesh_cell_base_3, so it disappears with the
 // cells a batch destroys.  No Python headers here.
+//
+// Threads: the class itself is not thread-safe.  Every call must hold the
+// object's mutex(); module.cpp takes it in every binding (after releasing the
+// GIL), so Python threads sharing one object take turns.
 #pragma once
 
 #include <array>
+#include <atomic>
+#include <cstdint>
 #include <deque>
 #include <limits>
 #include <mutex>
-#include <cstdint>
+#include <new>
 #include <vector>
 
 #include <CGAL/Delaunay_triangulation_3.h>
@@ -28,8 +34,8 @@ namespace rdmesh {
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = K::Point_3;
 
-// Facet flag bits, set by Python.  BAD and TOPO are opaque labels here
-// (Python: fails a criterion / crosses the surface badly).
+// Facet flag bits, set by Python (module.cpp exports them).  BAD and TOPO are
+// opaque labels here (Python: fails a criterion / crosses the surface badly).
 enum FacetFlag : std::uint8_t {
   RESTRICTED = 1,
   BAD = 2,
@@ -81,6 +87,8 @@ struct ChangedFacets {
   std::vector<double> ends;             // u*3
   std::vector<double> rho;              // k facet circumradii
   SegmentSamples samples;  // per facet, its apex the smallest-id vertex
+  std::uint64_t chunk = 0;  // serial of the pending chunk (0: none), for
+                            // RestrictedDelaunay::withdraw_chunk
 };
 
 // Voronoi facets dual to Delaunay edges, as CSR polygons (voronoi.cpp).
@@ -114,13 +122,27 @@ class RestrictedDelaunay {
   // meets the bounding ball, in chunks of about max_facets (0: all at once);
   // an empty result ends the round.  Their flags are cleared: update_facets
   // sets them, for the oldest chunk not yet updated (same order and count).
-  // One update_facets may run while the next chunk is being computed.  An
+  // Several chunks may be handed out before the first is updated.  An
   // insert before the round is fully updated reports the round again.
   // Each segment comes with its samples for the crossing search.
+  //
+  // Exceptions (e.g. std::bad_alloc): changed_facets commits its progress
+  // through the round only once the chunk is complete and queued, so after a
+  // throw the next call hands out the same facets again (the cells it
+  // gathered stay gathered, and flags it cleared stay cleared: both are
+  // redone the same way).  update_facets checks and allocates before it
+  // writes, so a throw leaves the chunk pending.  withdraw_chunk undoes a
+  // call whose result never reached the caller.  restart_round always hands
+  // out the whole round again.
   ChangedFacets changed_facets(std::size_t max_facets = 0,
                                const SegmentSampling& sampling = {});
   void update_facets(const std::uint8_t* flags, const double* centres,
                      std::size_t n);
+
+  // Undoes the changed_facets call that returned chunk `serial`, if that
+  // chunk is still the newest pending one (module.cpp: the result could not
+  // be handed to Python), so the next call reports its facets again.
+  void withdraw_chunk(std::uint64_t serial);
 
   // Forget the chunks handed out and not updated, and hand out the whole
   // current round again (after an interruption mid-round).
@@ -142,8 +164,9 @@ class RestrictedDelaunay {
 
   // Voronoi facets dual to the Delaunay edges (p, q) given as m id pairs
   // (p != q, both samples); throws std::invalid_argument for an id out of
-  // range or a pair that is not a Delaunay edge.
-  VoronoiFacets voronoi_facets(const std::int64_t* edges, std::size_t m) const;
+  // range or a pair that is not a Delaunay edge.  Not const: it numbers the
+  // cells through their end_idx/end_stamp fields and caches circumcentres.
+  VoronoiFacets voronoi_facets(const std::int64_t* edges, std::size_t m);
 
   // Delaunay edges between samples, as sorted id pairs (p < q) in increasing
   // order: those of the cells incident to the given samples, or every such
@@ -157,21 +180,28 @@ class RestrictedDelaunay {
   std::size_t number_of_cells() const { return dt_.number_of_finite_cells(); }
   std::vector<double> samples() const;
 
-  // Every facet whose clipped dual meets the bounding ball (no side effects);
-  // for checking the incremental bookkeeping against a from-scratch pass.
-  ChangedFacets all_facets() const;
+  // Every facet whose clipped dual meets the bounding ball (no effect on the
+  // rounds; fills the circumcentre cache); for checking the incremental
+  // bookkeeping against a from-scratch pass.
+  ChangedFacets all_facets();
 
   // Checks the Delaunay property and the symmetry of the facet flags;
   // throws std::runtime_error on failure.
   void check() const;
 
+  // The lock every caller holds for each call (see the top of this file).
+  std::mutex& mutex() const { return mutex_; }
+
  private:
-  const std::array<double, 3>& circumcentre(Cell_handle c) const;
+  // Fills the cell's circumcentre cache on first use.
+  const std::array<double, 3>& circumcentre(Cell_handle c);
   bool is_dummy(Vertex_handle v) const;
   bool clip(std::array<double, 3>& a, std::array<double, 3>& b) const;
   bool gather_more();
   void mark_fresh(Cell_handle c);
   bool round_unfinished() const;
+  void start_round();
+  void reset_end_stamps();
   void compact_centres();
 
   Delaunay dt_;
@@ -179,19 +209,20 @@ class RestrictedDelaunay {
   double radius_;
   std::vector<Vertex_handle> samples_;
   std::vector<Vertex_handle> last_new_;
-  // Chunks handed out and not yet updated, oldest first.  changed_facets may
-  // run in one thread while update_facets runs in another: they touch
-  // different facets, and the queue itself is guarded by the mutex.
-  // Both sides of each facet, so update_facets need not look up the mirror
-  // index (a cache miss per facet on large meshes).
+  // Chunks handed out and not yet updated, oldest first.  Both sides of each
+  // facet, so update_facets need not look up the mirror index (a cache miss
+  // per facet on large meshes).
   struct Side {
     Cell_handle c, nb;
     std::int8_t i, j, swapped;
   };
   struct Chunk {
     std::vector<Side> facets;
+    std::size_t begin = 0;     // its first cell in fresh_
+    std::uint64_t serial = 0;  // as ChangedFacets::chunk
   };
   std::deque<Chunk> pending_;
+  std::uint64_t serial_ = 0;  // chunks handed out so far
   mutable std::mutex mutex_;
   std::vector<Vertex_handle> round_vertices_;  // inserted before this round
   // Cells new in this round, gathered lazily (so the first chunk of a round
@@ -213,16 +244,29 @@ class RestrictedDelaunay {
   std::vector<Cell_handle> around_;  // scratch
   std::int32_t round_ = 0;
   std::int32_t call_ = 0;
-  mutable std::int32_t voronoi_call_ = 0;  // voronoi_facets calls (cell numbering)
+  std::int32_t voronoi_call_ = 0;  // voronoi_facets calls (cell numbering)
   Vertex_handle hint_;
 };
 
 // Greedy independent set of balls (algorithm.md, batching rule): in order of
 // decreasing radius (ties by lexicographic centre) accept a ball unless its
-// centre lies in the closed ball of an already accepted one.  Returns the
-// accepted indices in that order.
+// centre lies in the closed ball of an already accepted one (decided
+// exactly, whatever the magnitudes).  Returns the accepted indices in that
+// order.  Throws std::invalid_argument for a non-finite centre or radius or
+// a radius <= 0.
 std::vector<std::int64_t> select_independent(const double* centres,
                                              const double* radii,
                                              std::size_t n);
+
+// Test hook for the exception guarantees above: the n-th fault point from
+// now throws std::bad_alloc (n <= 0: never).  Fault points: each facet that
+// changed_facets appends or cell it gathers, each update_facets, and the
+// conversion of changed_facets' result in module.cpp.
+inline std::atomic<std::int64_t> fail_countdown_for_testing{0};
+inline void fault_point_for_testing() {
+  if (fail_countdown_for_testing.load(std::memory_order_relaxed) > 0 &&
+      fail_countdown_for_testing.fetch_sub(1) == 1)
+    throw std::bad_alloc();
+}
 
 }  // namespace rdmesh

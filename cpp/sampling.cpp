@@ -24,10 +24,11 @@ void SegmentSamples::add(const double* a, const double* b, const double* apex,
   const double w0 = std::asinh(sigma0 / rho);
   const double w1 = std::asinh((sigma0 + len) / rho);
   const double want = std::ceil((w1 - w0) * spec.per_radius);
+  // Clamped as doubles first: a huge per_radius can make `want` exceed int64.
   std::int64_t n = spec.max_intervals;
-  if (std::isfinite(want))
-    n = std::clamp(static_cast<std::int64_t>(std::max(want, 0.0)),
-                   spec.min_intervals, spec.max_intervals);
+  if (want < static_cast<double>(spec.max_intervals))
+    n = std::max(static_cast<std::int64_t>(std::max(want, 0.0)),
+                 spec.min_intervals);
   if (len == 0.0) n = 1;
   s.push_back(0.0);
   // sinh(w0 + j dw) by the addition theorem: one expm1 per segment instead

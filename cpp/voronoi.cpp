@@ -20,7 +20,7 @@ void check_id(std::int64_t id, std::size_t n) {
 }  // namespace
 
 VoronoiFacets RestrictedDelaunay::voronoi_facets(const std::int64_t* edges,
-                                                 std::size_t m) const {
+                                                 std::size_t m) {
   const std::size_t n = samples_.size();
   for (std::size_t k = 0; k < m; ++k) {
     check_id(edges[2 * k], n);
@@ -71,8 +71,11 @@ VoronoiFacets RestrictedDelaunay::voronoi_facets(const std::int64_t* edges,
   out.cell.reserve(6 * m);
   out.third.reserve(6 * m);
   // Distinct cells are numbered through their end_idx/end_stamp fields with
-  // a negative stamp, which changed_facets (positive stamps) never matches.
-  const std::int32_t stamp = -(++voronoi_call_) - 1;  // -1 is the initial value
+  // a negative stamp, which changed_facets (positive stamps) never matches;
+  // cheaper than a map from cell to number.  -1 is the initial value.
+  if (voronoi_call_ == std::numeric_limits<std::int32_t>::max() - 1)
+    reset_end_stamps();
+  const std::int32_t stamp = -(++voronoi_call_) - 1;
   std::int64_t n_cells = 0;
   for (std::size_t k = 0; k < m; ++k) {
     const Where& at = where[k];

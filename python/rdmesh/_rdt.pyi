@@ -1,0 +1,83 @@
+# Type stub of rdmesh._rdt, the C++ core (cpp/module.cpp).  Kept in step with
+# the bindings by tests/test_core_threads.py::test_stub_matches_the_bindings.
+
+from typing import Final
+
+import numpy as np
+import numpy.typing as npt
+
+CGAL_VERSION: Final[str]
+RESTRICTED: Final[int]
+BAD: Final[int]
+OUTWARD: Final[int]
+TOPO: Final[int]
+
+_SegmentSamples = tuple[
+    npt.NDArray[np.int64],  # (k+1,) offsets
+    npt.NDArray[np.float64],  # (P,) distances from each segment's start
+    npt.NDArray[np.float64],  # (P - 2k, 3) interior points
+]
+
+def sample_segments(
+    seg: npt.ArrayLike,
+    apex: npt.ArrayLike,
+    rho: npt.ArrayLike,
+    per_radius: float = 1.0,
+    min_intervals: int = 3,
+    max_intervals: int = 64,
+) -> _SegmentSamples: ...
+def select_independent(centres: npt.ArrayLike, radii: npt.ArrayLike) -> npt.NDArray[np.int64]: ...
+def trim_heap() -> bool: ...
+def _fail_allocation_for_testing(n: int) -> int: ...
+
+class RestrictedDelaunay:
+    def __init__(self, centre: npt.ArrayLike, radius: float) -> None: ...
+    def insert(self, points: npt.ArrayLike) -> npt.NDArray[np.int64]: ...
+    def changed_facets(
+        self,
+        max_facets: int = 0,
+        per_radius: float = 1.0,
+        min_intervals: int = 3,
+        max_intervals: int = 64,
+    ) -> tuple[
+        npt.NDArray[np.int64],  # (k, 3) sorted vertex ids
+        npt.NDArray[np.float64],  # (k, 2, 3) clipped dual segments
+        npt.NDArray[np.int64],  # (k, 2) indices of the segment ends into ...
+        npt.NDArray[np.float64],  # ... (u, 3) distinct end points
+        npt.NDArray[np.float64],  # (k,) facet circumradii
+        _SegmentSamples,
+    ]: ...
+    def update_facets(self, flags: npt.ArrayLike, centres: npt.ArrayLike) -> None: ...
+    def restart_round(self) -> None: ...
+    def facets(
+        self, mask: int = 0
+    ) -> tuple[
+        npt.NDArray[np.int64],  # (k, 3) outward-oriented vertex ids
+        npt.NDArray[np.float64],  # (k, 3) surface centres
+        npt.NDArray[np.uint8],  # (k,) flag bits
+    ]: ...
+    def all_facets(
+        self,
+    ) -> tuple[
+        npt.NDArray[np.int64],  # (k, 3) sorted vertex ids
+        npt.NDArray[np.float64],  # (k, 2, 3) clipped dual segments
+    ]: ...
+    def is_facet(self, tri: npt.ArrayLike) -> npt.NDArray[np.bool_]: ...
+    def neighbours(
+        self, ids: npt.ArrayLike
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
+    def voronoi_facets(
+        self, edges: npt.ArrayLike
+    ) -> tuple[
+        npt.NDArray[np.int64],  # (m+1,) offsets
+        npt.NDArray[np.float64],  # (T, 3) polygon vertices
+        npt.NDArray[np.int64],  # (T,) distinct-cell index of each vertex
+        npt.NDArray[np.int64],  # (T,) third vertex of each dual facet, -1: dummy
+    ]: ...
+    def delaunay_edges(self, ids: npt.ArrayLike | None = None) -> npt.NDArray[np.int64]: ...
+    def samples(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def number_of_samples(self) -> int: ...
+    @property
+    def number_of_cells(self) -> int: ...
+    def check(self) -> None: ...
