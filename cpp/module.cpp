@@ -103,10 +103,6 @@ void silent_handler(const char*, const char*, const char*, int, const char*) {}
 PYBIND11_MODULE(_rdt, m) {
   m.doc() = "Restricted Delaunay triangulation core of rdmesh (CGAL 3D Delaunay).";
   m.attr("CGAL_VERSION") = CGAL_STR(CGAL_VERSION);
-  m.attr("RESTRICTED") = static_cast<int>(rdmesh::RESTRICTED);
-  m.attr("BAD") = static_cast<int>(rdmesh::BAD);
-  m.attr("OUTWARD") = static_cast<int>(rdmesh::OUTWARD);
-  m.attr("TOPO") = static_cast<int>(rdmesh::TOPO);
   // CGAL still throws on failures; this only stops it writing to stderr.
   CGAL::set_error_handler(silent_handler);
   CGAL::set_warning_handler(silent_handler);

@@ -1,4 +1,4 @@
-"""The C++ core rdmesh._rdt under threads, faults and extreme inputs."""
+"""The C++ core rdmesh.core._rdt under threads, faults and extreme inputs."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rdmesh
-from rdmesh import _rdt
+from rdmesh.core import _rdt
 
 try:  # not in the test extras (yet): only the property-based test needs it
     from hypothesis import HealthCheck, assume, given, settings
@@ -50,7 +50,7 @@ HAMMER = textwrap.dedent(
     import threading
 
     import numpy as np
-    from rdmesh import _rdt
+    from rdmesh.core import _rdt
 
     FLAG = np.uint8(_rdt.RESTRICTED | _rdt.OUTWARD)
 
@@ -159,7 +159,7 @@ def test_interpreter_exits_cleanly_after_use():
         """
         import numpy as np
         import rdmesh
-        from rdmesh import _rdt
+        from rdmesh.core import _rdt
 
         rdt = _rdt.RestrictedDelaunay(np.zeros(3), 2.0)
         rdt.insert(np.random.default_rng(0).normal(size=(50, 3)) * 0.3)
@@ -579,7 +579,7 @@ def _stub_signature(node):
 
 
 def test_stub_matches_the_bindings():
-    stub = ast.parse(Path(rdmesh.__file__).with_name("_rdt.pyi").read_text())
+    stub = ast.parse(Path(rdmesh.core.__file__).with_name("_rdt.pyi").read_text())
     public = {n for n in dir(_rdt) if not n.startswith("__")}
     seen = set()
     for node in stub.body:
