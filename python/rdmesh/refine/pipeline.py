@@ -89,12 +89,20 @@ class FacetPipeline:
         return job
 
     def _settle(self) -> None:
-        """Cancel the core jobs not started and wait for the running one, through Ctrl-C."""
+        """Cancel the core jobs not started and wait until the worker is idle, through Ctrl-C.
+
+        A Ctrl-C can land between ``submit`` and the bookkeeping of its
+        future, so the wait is for a no-op job queued last: the worker runs
+        jobs in order, so when it has run, every earlier job has ended.
+        """
         for job in self._jobs:
             job.cancel()
+        last = None
         while True:
             try:
-                wait(self._jobs)
+                if last is None:
+                    last = self._worker.submit(_nothing)
+                wait([last])
                 break
             except KeyboardInterrupt:
                 continue  # the exception already propagating says "interrupted"
@@ -157,3 +165,7 @@ class FacetPipeline:
                 work(sl)
         self.failed += sum(failed)
         return flags, centres
+
+
+def _nothing() -> None:
+    """The no-op job that marks the end of the worker's queue."""
