@@ -291,11 +291,14 @@ def test_time_limit_writes_the_partial_mesh(tmp_path):
     assert len(load(tmp_path / "p.obj").faces) > 0
 
 
-def test_ctrl_c_writes_the_partial_mesh(tmp_path):
-    # A run of a minute or more: interrupted once refinement rounds have begun
-    # (the progress bar, on stderr after a second, shows the round).  The
-    # watchdog only guards against a hang: it kills rdmesh, which ends the
-    # read loop and fails the test on the exit status.
+def _interrupt_after_first_round(tmp_path, *gaps: float):
+    """Run a minute-long mesh job, and once refinement rounds have begun (the
+    progress bar, on stderr after a second, shows the round) send SIGINT, and
+    again after each of ``gaps`` seconds. Returns (status, stdout, stderr).
+
+    The watchdog only guards against a hang: it kills rdmesh, which ends the
+    read loop and fails the test on the exit status.
+    """
     proc = subprocess.Popen(
         [sys.executable, "-m", "rdmesh", "mesh", "torus", "--radius", "0.004",
          "--time-limit", "3600", "-o", "int.ply"],
@@ -311,24 +314,40 @@ def test_ctrl_c_writes_the_partial_mesh(tmp_path):
             assert chunk, f"rdmesh ended before the first round was shown: {seen!r}"
             seen += chunk
         proc.send_signal(signal.SIGINT)
+        for gap in gaps:
+            time.sleep(gap)
+            proc.send_signal(signal.SIGINT)
         stdout, stderr = proc.communicate()
     finally:
         watchdog.cancel()
         if proc.poll() is None:
             proc.kill()
             proc.communicate()
-    stderr = (seen + stderr).decode()
-    assert proc.returncode == 130, stderr
+    return proc.returncode, stdout.decode(), (seen + stderr).decode()
+
+
+def test_ctrl_c_writes_the_partial_mesh(tmp_path):
+    status, stdout, stderr = _interrupt_after_first_round(tmp_path)
+    assert status == 130, stderr
     assert "Traceback" not in stderr
     assert stderr.rstrip().splitlines()[-1] == (
         "rdmesh: interrupted; wrote the partial mesh to int.ply"
     )
-    assert "INCOMPLETE: interrupted" in stdout.decode()
+    assert "INCOMPLETE: interrupted" in stdout
     # Refinement had passed round 1 (over 6000 samples): the partial mesh is
     # what was there, not a stub.
     mesh = load(tmp_path / "int.ply")
     assert len(mesh.faces) >= 1000
-    assert f"vertices {len(mesh.vertices)}, faces {len(mesh.faces)}" in stdout.decode()
+    assert f"vertices {len(mesh.vertices)}, faces {len(mesh.faces)}" in stdout
+
+
+@pytest.mark.parametrize("gap", [0.0, 0.02, 0.2])
+def test_two_ctrl_c_end_with_status_130(gap, tmp_path):
+    """A second Ctrl-C used to interrupt the worker's shutdown while the core
+    was still in use (a segfault). Now it must end with status 130."""
+    status, _, stderr = _interrupt_after_first_round(tmp_path, gap)
+    assert status == 130, stderr[-2000:]
+    assert "Traceback" not in stderr
 
 
 # -- the progress bar ----------------------------------------------------------------------

@@ -151,11 +151,12 @@ class Mesher:
         while stop is None:
             self.rounds += 1
             self.pipeline.update(self.vertices)
-            snap = self.snapshot()
+            # No local reference: the snapshot's arrays and trees go with the
+            # next insertion, before the next round's peak.
             if self.check:
-                check_restricted(snap)
+                check_restricted(self.snapshot())
             with self.timer("candidates"):
-                found = self._ask(plan, snap, floor)
+                found = self._ask(plan, self.snapshot(), floor)
             if found is None:
                 break
             if self.rounds > MAX_ROUNDS:

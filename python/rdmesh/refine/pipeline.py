@@ -7,14 +7,14 @@ background thread, with the GIL released, hands the previous chunk's flags to
 the core and computes the next chunk, so both cores work. The thread runs its
 jobs in order, as the core requires.
 
-A failure or a Ctrl-C in the middle of a round cancels the core jobs not yet
-started and waits for the running one, even through further Ctrl-Cs, so that
-nothing touches the core from two threads and the round can be restarted.
+A failure or a Ctrl-C in the middle of a round waits until the worker has run
+its queued jobs, even through further Ctrl-Cs, so that nothing touches the
+core from two threads and the round can be restarted.
 """
 
 from __future__ import annotations
 
-from concurrent.futures import Future, ThreadPoolExecutor, wait
+from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
 
@@ -64,7 +64,6 @@ class FacetPipeline:
         #: Dual segments whose root search failed (never used as surface points).
         self.failed = 0
         self._worker = ThreadPoolExecutor(1, thread_name_prefix="rdmesh-core")
-        self._jobs: list[Future] = []
 
     def update(self, vertices: np.ndarray) -> None:
         """Evaluate every facet whose dual changed since the last update.
@@ -83,20 +82,13 @@ class FacetPipeline:
         self._settle()
         self._worker.shutdown(wait=False)
 
-    def _submit(self, fn, *args, **kwargs) -> Future:
-        job = self._worker.submit(fn, *args, **kwargs)
-        self._jobs.append(job)
-        return job
-
     def _settle(self) -> None:
-        """Cancel the core jobs not started and wait until the worker is idle, through Ctrl-C.
+        """Wait until the worker has run every queued core job, through Ctrl-C.
 
-        A Ctrl-C can land between ``submit`` and the bookkeeping of its
-        future, so the wait is for a no-op job queued last: the worker runs
-        jobs in order, so when it has run, every earlier job has ended.
+        The wait is for a no-op job queued last: the worker runs jobs in
+        order, so when it has run, every earlier job has ended (the round is
+        then restarted, so what they did is redone).
         """
-        for job in self._jobs:
-            job.cancel()
         last = None
         while True:
             try:
@@ -106,28 +98,26 @@ class FacetPipeline:
                 break
             except KeyboardInterrupt:
                 continue  # the exception already propagating says "interrupted"
-        self._jobs.clear()
 
     def _update(self, vertices: np.ndarray) -> None:
         rdt, timed = self.rdt, self.timer
         updates = []
-        job = self._submit(rdt.changed_facets, FIRST_CHUNK, **SAMPLING)
+        job = self._worker.submit(rdt.changed_facets, FIRST_CHUNK, **SAMPLING)
         while True:
             with timed("changed_facets"):
                 tri, seg, end_index, ends, rho, samples = job.result()
             if len(tri) == 0:
                 break
-            job = self._submit(rdt.changed_facets, CORE_CHUNK, **SAMPLING)
+            job = self._worker.submit(rdt.changed_facets, CORE_CHUNK, **SAMPLING)
             with timed("evaluate"):
                 end_f = self.surface(ends)[end_index]
                 check_sphere_ends(self.surface, seg, end_f)
                 flags, centres = self._flags(vertices, tri, seg, end_f, rho, DualSamples(*samples))
-            updates.append(self._submit(rdt.update_facets, flags, centres))
+            updates.append(self._worker.submit(rdt.update_facets, flags, centres))
             self.evaluated += len(tri)
         with timed("update_facets"):
             for u in updates:
                 u.result()  # re-raises a failure
-        self._jobs.clear()
 
     def _flags(self, vertices, tri, seg, end_f, rho, samples):
         """Flags (restricted, bad, topology, outward) and surface centres of a chunk."""
