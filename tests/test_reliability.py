@@ -211,3 +211,31 @@ def test_meshes_from_a_thread_pool_equal_one_at_a_time():
         together = list(pool.map(_batch_case, names))
     for (v, f), (v2, f2) in zip(alone * 2, together, strict=True):
         assert np.array_equal(v, v2) and np.array_equal(f, f2)
+
+
+# -- the bounding sphere, and Ctrl-C in the report ---------------------------------------------
+
+
+def test_surface_poking_out_of_the_sphere_is_found():
+    """A thin spike reaches 1e-4 beyond the bounding sphere: the grid's points on
+    the sphere miss it; the search from the outermost samples finds it."""
+
+    def f(p):
+        r = np.sqrt(np.einsum("ij,ij->i", p, p))
+        spike = 0.1001 * np.exp(-(p[:, 0] ** 2 + p[:, 1] ** 2) / 0.02**2) * (p[:, 2] > 0)
+        return r - 0.9 - spike
+
+    surface = rdmesh.ImplicitSurface(f, ((0, 0, 0), 1.0))
+    with pytest.raises(rdmesh.BoundingSphereError, match="on the bounding sphere"):
+        rdmesh.mesh_surface(surface, radius_bound=0.05)
+
+
+def test_ctrl_c_in_the_report_gives_the_mesh(monkeypatch):
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(mesher_module, "topology_report", interrupted)
+    with pytest.raises(rdmesh.Interrupted) as info:
+        rdmesh.mesh_surface(SURFACES["sphere"].make(), radius_bound=0.3)
+    m = info.value.mesh
+    assert m.is_closed_manifold() and not m.complete and m.report == {}

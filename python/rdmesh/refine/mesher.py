@@ -22,6 +22,7 @@ from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._tol import REGION_LINK
 from ..io.result import SurfaceMesh
+from ..sampling.grid import check_sphere_near
 from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
@@ -121,6 +122,7 @@ class Mesher:
             try:
                 self._insert(seeds, "seeds")
                 stop = self._loop(plan, t0, stop)
+                check_sphere_near(self.surface, self.vertices)
             except KeyboardInterrupt:
                 # Keep the samples inserted so far and evaluate the interrupted
                 # round again from its start, so the partial mesh is consistent
@@ -264,28 +266,34 @@ def _result(m: Mesher, plan: Plan, t0: float, evals0: int, stop: str | None) -> 
     tri, centres, _ = snap.facets(0)
     unresolved = np.concatenate(m.unresolved) if m.unresolved else np.zeros((0, 3))
     mesh = SurfaceMesh.from_facets(m.vertices, tri, centres, unresolved)
-    with m.timer("report"):
-        core.trim_heap()
-        mesh.report = topology_report(
-            snap,
-            method=m.method,
-            probes=plan.report_probes(),
-            faces=mesh.faces,
-            n_mesh_vertices=len(mesh.vertices),
-            repaired=m.inserted,
-            unresolved=mesh.unresolved,
-            complete=not stop,
-            critical=plan.critical,
-            floor=plan.floor_report,
-            quick=bool(stop and stop.startswith("time_limit")),
-        )
+    report_interrupted = False
+    try:
+        with m.timer("report"):
+            core.trim_heap()
+            mesh.report = topology_report(
+                snap,
+                method=m.method,
+                probes=plan.report_probes(),
+                faces=mesh.faces,
+                n_mesh_vertices=len(mesh.vertices),
+                repaired=m.inserted,
+                unresolved=mesh.unresolved,
+                complete=not stop,
+                critical=plan.critical,
+                floor=plan.floor_report,
+                quick=bool(stop and stop.startswith("time_limit")),
+            )
+    except KeyboardInterrupt:
+        # The mesh is whole; only the report is missing.
+        report_interrupted = True
     timing = m.timer.seconds
     # The loop test's own time (refinement rounds and report).
     timing["voronoi_loop"] = m.memo.seconds
     if len(mesh.unresolved):
         log.warning(
-            "%d refinement points were below the spacing floor and not inserted "
-            "(near-singular surface?): %s; see SurfaceMesh.unresolved",
+            "%d points left unresolved: refinement points below the spacing floor, or "
+            "failing tests without a refinement point (near-singular surface?): %s; see "
+            "SurfaceMesh.unresolved",
             len(mesh.unresolved),
             describe_regions(regions(mesh.unresolved, REGION_LINK * m.surface.radius)),
         )
@@ -302,6 +310,10 @@ def _result(m: Mesher, plan: Plan, t0: float, evals0: int, stop: str | None) -> 
         method=m.method,
         topology=m.topology,
     )
+    if report_interrupted:
+        mesh.complete = False
+        mesh.stats["stop_reason"] = "interrupted during the report"
+        raise Interrupted("interrupted during the report", mesh=mesh, reason="interrupted")
     if stop:
         mesh.complete = False
         mesh.stats["stop_reason"] = stop

@@ -18,7 +18,9 @@ from scipy.spatial.transform import Rotation
 
 from .. import core
 from .._errors import BoundingSphereError, EmptySurfaceError
+from .._newton import damped_step
 from .._tol import SHOT_ATOL
+from .._vectors import row_norms
 from ..surfaces.oracle import ImplicitSurface
 from .roots import SegmentSamples, line_crossings
 
@@ -188,3 +190,47 @@ def check_sphere_ends(surface: ImplicitSurface, seg: np.ndarray, end_values: np.
             f"sphere (e.g. {np.round(where, 6).tolist()}): the surface reaches the sphere; "
             "enlarge the radius, or flip the sign of f if it is negative outside"
         )
+
+
+#: Starts of the search for f <= 0 on the bounding sphere: the samples farthest
+#: from the centre, projected onto the sphere.
+SPHERE_STARTS = 64
+SPHERE_ITERATIONS = 20
+
+
+def check_sphere_near(surface: ImplicitSurface, samples: np.ndarray) -> None:
+    """Raise BoundingSphereError if a search finds ``f <= 0`` on the bounding sphere.
+
+    The samples farthest from the centre, where the surface comes closest to
+    the sphere, are projected onto it, and Newton steps along the sphere (the
+    tangential gradient) drive ``f`` towards zero from there. A point found
+    with ``f <= 0`` proves that the surface reaches the sphere; finding none
+    proves nothing (a search from samples).
+    """
+    if len(samples) == 0:
+        return
+    c0, R = surface.centre, surface.radius
+    d = samples - c0
+    r = row_norms(d)
+    pick = np.argsort(-r, kind="stable")[:SPHERE_STARTS]
+    pick = pick[r[pick] > 0]
+    x = c0 + R * d[pick] / r[pick, None]
+    for _ in range(SPHERE_ITERATIONS + 1):
+        f = surface(x)
+        if (f <= 0).any():
+            where = x[int(np.argmax(f <= 0))]
+            raise BoundingSphereError(
+                f"f <= 0 at {np.round(where, 6).tolist()} on the bounding sphere: the "
+                "surface reaches the sphere; enlarge the radius, or flip the sign of f if "
+                "it is negative outside"
+            )
+        n = (x - c0) / R
+        g = surface.grad(x)
+        gt = g - np.einsum("ij,ij->i", g, n)[:, None] * n
+        gn = row_norms(gt)
+        # No tangential slope (f constant along the sphere there): no step.
+        moving = gn > 1e-12 * row_norms(g)
+        step = np.zeros_like(x)
+        step[moving] = -(f[moving] / gn[moving])[:, None] * (gt[moving] / gn[moving, None])
+        x, _ = damped_step(x, step, 0.05 * R)
+        x = c0 + R * (x - c0) / np.linalg.norm(x - c0, axis=1)[:, None]
