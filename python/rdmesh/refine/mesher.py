@@ -31,8 +31,9 @@ from .check import check_restricted
 from .criteria import FacetCriteria
 from .floor import SpacingFloor
 from .methods import METHODS, Plan
+from .phases import Phases
 from .pipeline import FacetPipeline
-from .stages import Candidates
+from .samples import Samples
 from .timing import PhaseTimer
 
 log = logging.getLogger("rdmesh")
@@ -92,12 +93,10 @@ class Mesher:
         self.workers = workers
         self.timer = PhaseTimer()
         self.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
-        self.vertices = np.zeros((0, 3))
+        self.samples = Samples(self.rdt)
         self.memo = LoopMemo()
         self.pipeline = FacetPipeline(self.rdt, surface, criteria, workers, self.timer)
         self.rounds = 0
-        self.phase = 0
-        self.inserted: dict[str, int] = {}
         self.unresolved: list[np.ndarray] = []
         self._snap: Snapshot | None = None
         self.stalled = False
@@ -128,24 +127,21 @@ class Mesher:
                 # round again from its start, so the partial mesh is consistent
                 # (the pipeline has settled the core's jobs).
                 interrupted, stop = True, "interrupted"
-                self.vertices = self.rdt.samples()
+                self.samples.reload()
                 self.rdt.restart_round()
                 self._snap = None
                 self.pipeline.update(self.vertices)
             mesh = _result(self, plan, t0, evals0, stop)
         finally:
             self.pipeline.close()
-        if interrupted:
-            raise Interrupted("refinement interrupted", mesh=mesh, reason=stop)
-        if self.stalled:
-            raise RefinementStalled(f"refinement stopped: {stop}", mesh=mesh, reason=stop)
         if stop:
-            raise BudgetExceeded(f"refinement stopped early: {stop}", mesh=mesh, reason=stop)
+            raise _stopped(stop, mesh, interrupted, self.stalled)
         return mesh
 
     def _loop(self, plan: Plan, t0: float, stop: str | None) -> str | None:
         """Refinement rounds until nothing is left to refine or a budget runs out."""
         floor = SpacingFloor(self.criteria, self.surface.radius, plan.topology_floor)
+        phases = Phases(plan.phases, floor)
         cap = self.budget.max_vertices
         # A round's cost (insert, update, stages, select) grows with the points
         # it inserts: the next round is predicted from this one per point.
@@ -158,16 +154,12 @@ class Mesher:
             if self.check:
                 check_restricted(self.snapshot())
             with self.timer("candidates"):
-                found = self._ask(plan, self.snapshot(), floor)
+                found, self.unresolved = phases.ask(self.snapshot())
             if found is None:
                 break
             if self.rounds > MAX_ROUNDS:
                 # No budget of the user's: end like the spacing floor does.
-                log.warning(
-                    "refinement ended after %d rounds with %d %s points left; they are "
-                    "listed in SurfaceMesh.unresolved",
-                    MAX_ROUNDS, len(found), found.stage,
-                )  # fmt: skip
+                log.warning("ended at the cap of %d rounds; see unresolved", MAX_ROUNDS)
                 self.unresolved.append(found.centres)
                 break
             with self.timer("select"):
@@ -206,58 +198,29 @@ class Mesher:
             self.pipeline.update(self.vertices)
         return stop
 
-    def _ask(self, plan: Plan, snap: Snapshot, floor: SpacingFloor) -> Candidates | None:
-        """The points of the first stage, in phase order, that has any above the floor.
+    @property
+    def vertices(self) -> np.ndarray:
+        """The samples, indexed by the core's vertex ids."""
+        return self.samples.points
 
-        Points below the floor, and failing elements that have no refinement
-        point, go to ``self.unresolved``. A phase whose stages
-        are all satisfied gives way to the next one for good.
-        """
-        unresolved = []
-        try:
-            while True:
-                for stage in plan.phases[self.phase]:
-                    cand = stage.candidates(snap)
-                    if len(cand.stuck):
-                        unresolved.append(cand.stuck)
-                    if len(cand) == 0:
-                        continue
-                    keep = floor.keep(cand)
-                    if not keep.all():
-                        unresolved.append(cand.centres[~keep])
-                    if keep.any():
-                        return cand.take(keep)
-                if self.phase + 1 == len(plan.phases):
-                    return None
-                self.phase += 1
-                log.debug("phase %d of %s begins at %d samples", self.phase, self.method,
-                          len(self.vertices))  # fmt: skip
-        finally:
-            self.unresolved = unresolved
+    def _insert(self, points: np.ndarray, stage: str) -> int:
+        self._snap = None
+        with self.timer("insert"):
+            return self.samples.insert(points, stage)
 
     def snapshot(self) -> Snapshot:
         if self._snap is None:
             self._snap = Snapshot(self.surface, self.rdt, self.vertices, self.memo)
         return self._snap
 
-    def _insert(self, points: np.ndarray, stage: str) -> int:
-        """Insert points; returns how many were new samples."""
-        n0 = len(self.vertices)
-        self._snap = None
-        with self.timer("insert"):
-            # A round's freed temporaries stay with malloc (two threads: two
-            # arenas) and add up to the peak: 270 -> 227 MB at 89k samples
-            # on the sphere.
-            core.trim_heap()
-            ids = self.rdt.insert(points)
-        new = ids >= n0
-        grown = np.empty((self.rdt.number_of_samples, 3))
-        grown[:n0] = self.vertices
-        grown[ids[new]] = points[new]
-        self.vertices = grown
-        added = int(new.sum())
-        self.inserted[stage] = self.inserted.get(stage, 0) + added
-        return added
+
+def _stopped(stop: str, mesh: SurfaceMesh, interrupted: bool, stalled: bool) -> Exception:
+    """The exception that carries the partial mesh of a run that stopped early."""
+    if interrupted:
+        return Interrupted("refinement interrupted", mesh=mesh, reason=stop)
+    if stalled:
+        return RefinementStalled(f"refinement stopped: {stop}", mesh=mesh, reason=stop)
+    return BudgetExceeded(f"refinement stopped early: {stop}", mesh=mesh, reason=stop)
 
 
 def _result(m: Mesher, plan: Plan, t0: float, evals0: int, stop: str | None) -> SurfaceMesh:
@@ -276,7 +239,7 @@ def _result(m: Mesher, plan: Plan, t0: float, evals0: int, stop: str | None) -> 
                 probes=plan.report_probes(),
                 faces=mesh.faces,
                 n_mesh_vertices=len(mesh.vertices),
-                repaired=m.inserted,
+                repaired=m.samples.inserted,
                 unresolved=mesh.unresolved,
                 complete=not stop,
                 critical=plan.critical,
@@ -302,7 +265,7 @@ def _result(m: Mesher, plan: Plan, t0: float, evals0: int, stop: str | None) -> 
         rounds=m.rounds,
         evaluations=m.surface.evaluations - evals0,
         samples=len(m.vertices),
-        inserted=dict(m.inserted),
+        inserted=dict(m.samples.inserted),
         facets_evaluated=m.pipeline.evaluated,
         phase_seconds={k: round(v, 4) for k, v in timing.items()},
         unresolved=len(mesh.unresolved),
