@@ -161,6 +161,26 @@ SURFACES: dict[str, SurfaceInfo] = {
 }
 
 
+#: Each built-in surface (default parameters) as an expression text, for
+#: :func:`~rdmesh.surfaces.expressions.parse_expression`: the same function as
+#: the numpy one, written so that its interval enclosures
+#: (:mod:`rdmesh.surfaces.intervals`) are available. Constants are spelled as
+#: the numpy functions compute them (``1 - 0.4**2``, not ``0.84``).
+BUILTIN_EXPRESSIONS: dict[str, str] = {
+    "sphere": "x**2 + y**2 + z**2 - 1",
+    "ellipsoid": "x**2/1.5**2 + y**2 + z**2/0.5**2 - 1",
+    "torus": "(x**2 + y**2 + z**2 + 1 - 0.4**2)**2 - 4*(x**2 + y**2)",
+    "thin_torus": "(x**2 + y**2 + z**2 + 1 - 0.1**2)**2 - 4*(x**2 + y**2)",
+    "double_torus": "(x*(x - 1)**2*(x - 2) + y**2)**2 + z**2 - 0.01",
+    "tanglecube": "x**4 - 5*x**2 + y**4 - 5*y**2 + z**4 - 5*z**2 + 11.8",
+    "two_spheres": "((x - 1.05)**2 + y**2 + z**2 - 1)*((x + 1.05)**2 + y**2 + z**2 - 1)",
+    "blob_line": (
+        "0.5 - exp(-4*((x + 0.9)**2 + y**2 + z**2)) - exp(-4*(x**2 + y**2 + z**2))"
+        " - exp(-4*((x - 0.9)**2 + y**2 + z**2))"
+    ),
+}
+
+
 def get(name: str) -> ImplicitSurface:
     """Return a new instance of the built-in surface ``name``.
 

@@ -24,6 +24,10 @@ syntax tree (one pass, no symbolic blow-up). ``abs``, ``min`` and ``max``
 use the derivative of the active branch (``abs`` has derivative 0 at 0).
 Where the exact derivative is not finite (``sqrt`` at 0, say), those rows
 fall back to central differences.
+
+:meth:`Expression.interval` and :meth:`Expression.interval_gradient` bound the
+value and the gradient over boxes, with outward rounding
+(:mod:`rdmesh.surfaces.intervals`).
 """
 
 from __future__ import annotations
@@ -32,10 +36,14 @@ import ast
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .._errors import RdmeshError
+
+if TYPE_CHECKING:
+    from .intervals import Enclosure, GradientEnclosure
 
 __all__ = [
     "CONSTANTS",
@@ -540,6 +548,30 @@ class Expression:
                 for k in range(3):
                     out[bad, k] = (self(p + h[k]) - self(p - h[k])) / (2.0 * step)
         return out
+
+    def interval(self, lo: np.ndarray, hi: np.ndarray, *, mean_value: bool = False) -> Enclosure:
+        """Bounds of the expression over ``(n, 3)`` boxes ``[lo, hi]``.
+
+        Returns an :class:`~rdmesh.surfaces.intervals.Enclosure`
+        ``(lo, hi, undefined)`` of ``(n,)`` arrays, rounded outwards; see
+        :func:`rdmesh.surfaces.intervals.interval`.
+        """
+        from .intervals import interval
+
+        return interval(self, lo, hi, mean_value=mean_value)
+
+    def interval_gradient(
+        self, lo: np.ndarray, hi: np.ndarray, *, mean_value: bool = False
+    ) -> GradientEnclosure:
+        """Bounds of the expression and of its gradient over ``(n, 3)`` boxes.
+
+        Returns a :class:`~rdmesh.surfaces.intervals.GradientEnclosure`
+        ``(lo, hi, glo, ghi, undefined)``; see
+        :func:`rdmesh.surfaces.intervals.interval_gradient`.
+        """
+        from .intervals import interval_gradient
+
+        return interval_gradient(self, lo, hi, mean_value=mean_value)
 
     def __repr__(self) -> str:
         return f"Expression({self.text!r})"
