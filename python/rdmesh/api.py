@@ -71,7 +71,8 @@ def mesh_surface(
         round, per inserted point) to end past the limit is not started.
     seed_resolution : int, default 64
         Cells across the bounding ball of the grid scan that finds the
-        components; components thinner than a cell may be missed.
+        components; components narrower than about 1.7 cells may be missed (for
+        expression surfaces an interval subdivision searches for them too).
     progress : bool or callable, default False
         True shows a progress bar on stderr; a callable receives a dict
         (``round``, ``stage``, ``inserted``, ``vertices``, ``seconds``) after

@@ -22,9 +22,11 @@ from scipy.spatial import cKDTree
 
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
+from ..sampling.boxes import interval_boxes
 from ..sampling.critical import CriticalPoints, critical_points
-from ..sampling.grid import grid_scan
+from ..sampling.grid import GridScan, grid_scan
 from ..sampling.probes import Probes, surface_probes
+from ..surfaces.expressions import Expression
 from ..surfaces.oracle import ImplicitSurface
 from ..topology.tests import CELL_NORMAL_ANGLE, PROBE_TARGET, TESTS
 from .criteria import FacetCriteria
@@ -67,7 +69,7 @@ def boissonnat_oudot(
 ) -> Plan:
     """Seeds from the grid scan; stages as CGAL's Surface_mesher with its manifold tags."""
     spacing = criteria.radius_bound if isinstance(criteria.radius_bound, float) else None
-    scan = grid_scan(surface, rng, resolution, spacing=spacing)
+    scan = _scan(surface, rng, resolution, spacing)
     stages: list[Stage] = [FacetStage("facet", core.BAD | core.TOPO, "unless-bad")]
     if topology != "non-manifold":
         allow = topology == "manifold-with-boundary"
@@ -100,7 +102,7 @@ def topological_ball(
         # No size bound: seeds only need to find the components; the tests
         # add what the topology needs.
         spacing = TB_SEED_SPACING * R
-    scan = grid_scan(surface, rng, resolution, spacing=spacing)
+    scan = _scan(surface, rng, resolution, spacing)
     h, seeds = scan.spacing, scan.seeds
     crit = critical_points(surface, np.concatenate([seeds, scan.crossings]), rng, h)
     if len(crit.points):
@@ -127,6 +129,29 @@ def topological_ball(
         floor_report={"topology": f"{TOPOLOGY_FLOOR:g} x radius_bound"}
         if bound is not None
         else {"topology": floor},
+    )
+
+
+def _scan(
+    surface: ImplicitSurface, rng: np.random.Generator, resolution: int, spacing: float | None
+) -> GridScan:
+    """The grid scan; for expression surfaces, plus a point in each box of the
+    interval subdivision that may hold the surface and has no grid crossing
+    near it (small components the grid misses)."""
+    scan = grid_scan(surface, rng, resolution, spacing=spacing)
+    if not isinstance(surface.f, Expression):
+        return scan
+    found = interval_boxes(surface, surface.f, scan.spacing, rng, scan.crossings).points
+    if len(found) == 0:
+        return scan
+    d, _ = cKDTree(scan.crossings).query(found)
+    extra = found[d > scan.spacing]
+    if len(extra):
+        log.info("interval boxes: %d seeds away from every grid crossing", len(extra))
+    return GridScan(
+        np.concatenate([scan.seeds, extra]),
+        np.concatenate([scan.crossings, extra]),
+        scan.spacing,
     )
 
 

@@ -1,4 +1,4 @@
-"""Initial sample: a rotated grid scan that finds the components of the surface.
+"""Initial sample: a rotated grid scan that finds the components crossing grid edges.
 
 ``f`` is evaluated once on a randomly rotated and shifted grid covering the
 bounding ball. Every grid edge with a sign change gives a crossing (one
@@ -60,7 +60,8 @@ def grid_scan(
     resolution: int = 64,
     spacing: float | None = None,
 ) -> GridScan:
-    """Points on every component of the surface thicker than the grid spacing.
+    """Points on the components of the surface that cross grid edges (every component
+    wider than about sqrt(3) grid spacings; smaller ones only by chance).
 
     Parameters
     ----------
