@@ -110,8 +110,9 @@ class FacetPipeline:
                 break
             job = self._worker.submit(rdt.changed_facets, CORE_CHUNK, **SAMPLING)
             with timed("evaluate"):
-                end_f = self.surface(ends)[end_index]
-                check_sphere_ends(self.surface, seg, end_f)
+                f_ends = self.surface(ends)
+                check_sphere_ends(self.surface, ends, f_ends)
+                end_f = f_ends[end_index]
                 flags, centres = self._flags(vertices, tri, seg, end_f, rho, DualSamples(*samples))
             updates.append(self._worker.submit(rdt.update_facets, flags, centres))
             self.evaluated += len(tri)

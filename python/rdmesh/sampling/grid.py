@@ -166,7 +166,7 @@ def grid_scan(
 ON_SPHERE = 1e-9
 
 
-def check_sphere_ends(surface: ImplicitSurface, seg: np.ndarray, end_values: np.ndarray) -> None:
+def check_sphere_ends(surface: ImplicitSurface, ends: np.ndarray, values: np.ndarray) -> None:
     """Raise BoundingSphereError if ``f <= 0`` where a dual segment was clipped
     to the bounding sphere.
 
@@ -177,17 +177,23 @@ def check_sphere_ends(surface: ImplicitSurface, seg: np.ndarray, end_values: np.
 
     Parameters
     ----------
-    seg : (k, 2, 3) clipped dual segments.
-    end_values : (k, 2) ``f`` at their ends.
+    ends : (u, 3) distinct ends of a chunk's dual segments (Voronoi vertices
+        and points on the sphere).
+    values : (u,) ``f`` there.
     """
     c0, R = surface.centre, surface.radius
-    d = seg - c0
-    r = np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])
-    bad = (np.abs(r - R) <= ON_SPHERE * R) & (end_values <= 0)
-    if bad.any():
-        where = seg[bad][0]
+    # Only ends with f <= 0 can fail; ends lie within 4 R of the centre, so
+    # squares neither overflow nor underflow.
+    rows = np.flatnonzero(values <= 0)
+    if len(rows) == 0:
+        return
+    d = ends[rows] - c0
+    r = np.sqrt(np.einsum("ij,ij->i", d, d))
+    bad = rows[np.abs(r - R) <= ON_SPHERE * R]
+    if len(bad):
+        where = ends[bad[0]]
         raise BoundingSphereError(
-            f"f <= 0 at {int(bad.sum())} points where Voronoi edges meet the bounding "
+            f"f <= 0 at {len(bad)} points where Voronoi edges meet the bounding "
             f"sphere (e.g. {np.round(where, 6).tolist()}): the surface reaches the sphere; "
             "enlarge the radius, or flip the sign of f if it is negative outside"
         )

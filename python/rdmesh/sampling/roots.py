@@ -211,19 +211,24 @@ def _valleys(surface, origin, direction, seg_of, s, values, inside, same, dip_at
     ``|f|`` is smaller at the midpoint than at both ends.
     """
     a = np.abs(values)
-    n = len(a)
     no_triples = (np.zeros(0, np.int64), *([np.zeros(0)] * 4))
     no_pairs = (np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0, bool))
-    j = np.flatnonzero(same & (inside[1:] == inside[:-1]) & ~dip_at[:-1] & ~dip_at[1:])
-    left = np.zeros(j.size)
-    has_left = j >= 1
-    has_left[has_left] &= same[j[has_left] - 1]
-    left[has_left] = a[j[has_left] - 1]
-    right = np.zeros(j.size)
-    has_right = j + 2 < n
-    has_right[has_right] &= same[np.minimum(j[has_right] + 1, n - 2)]
-    right[has_right] = a[j[has_right] + 2]
-    j = j[np.maximum(a[j], a[j + 1]) < DIP_FRACTION * np.maximum(left, right)]
+    # Interval k lies between samples k and k + 1; its outer neighbours are
+    # samples k - 1 and k + 2 when they belong to the same segment. This runs
+    # on every sample of every chunk, so a loose whole-array screen comes
+    # first (neighbours across segments only add candidates), then the exact
+    # rule on the few candidates.
+    n = len(same)
+    outer = np.zeros(n)
+    outer[1:] = a[:-2]
+    np.maximum(outer[:-1], a[2:], out=outer[:-1])
+    j = np.flatnonzero(same & (np.maximum(a[:-1], a[1:]) < DIP_FRACTION * outer))
+    left = np.where((j >= 1) & same[np.maximum(j - 1, 0)], a[np.maximum(j - 1, 0)], 0.0)
+    right_ok = (j + 1 < n) & same[np.minimum(j + 1, n - 1)]
+    right = np.where(right_ok, a[np.minimum(j + 2, len(a) - 1)], 0.0)
+    keep = np.maximum(a[j], a[j + 1]) < DIP_FRACTION * np.maximum(left, right)
+    keep &= (inside[j] == inside[j + 1]) & ~dip_at[j] & ~dip_at[j + 1]
+    j = j[keep]
     if j.size == 0:
         return no_pairs, no_triples
     seg, lo, hi = seg_of[j], s[j], s[j + 1]
