@@ -16,13 +16,16 @@ Families (each a function ``family(sampler, profile) -> FuzzSurface``):
     follows from the 1-D function ``g`` whether the blobs are separated,
     clearly merged or joined by a neck: construction.
 ``metaball_cloud``
-    Blobs of several widths anywhere. When they are separated enough for
-    :func:`_separated_metaballs` to prove that every blob is a radial graph
-    (one sphere each), construction; otherwise marching cubes.
+    Blobs of several widths: at random, on a ring (a torus when neighbours
+    merge), or with a weak "satellite" blob apart (a small component). When
+    they are separated enough for :func:`_separated_metaballs` to prove that
+    every blob is a radial graph (one sphere each), construction; otherwise
+    marching cubes.
 ``primitives``
     Randomly placed and oriented ellipsoids and ring tori, at least a gap
     apart, combined by product or by min (see :func:`primitives`): one
-    component per part, chi 2 per ellipsoid and 0 per torus. Construction.
+    component per part, chi 2 per ellipsoid and 0 per torus; now and then one
+    part is a small ellipsoid. Construction.
 ``perturbed_sphere``
     ``|p - c| - rho(u)``, ``rho = R0 (1 + trig modes + bumps)`` on the
     direction ``u``, with amplitudes summing to at most 1/2 so ``rho > 0``:
@@ -35,6 +38,10 @@ Families (each a function ``family(sampler, profile) -> FuzzSurface``):
     Two blobs a prescribed gap apart: the dumbbell with ``e < 0`` (the roots
     ``m +- gap/2`` split it), or the product of two sphere functions.
     Construction.
+
+Necks and gaps are drawn log-uniformly down to the profile's minimum. One
+surface in three gets a bounding sphere up to 3 times too large
+(:func:`loosen`): the seeding grid has a fixed number of cells across it.
 
 Reference topology. Construction where it is certain (each family says why);
 otherwise skimage's marching cubes at two dense resolutions, whose components
@@ -95,6 +102,10 @@ class Profile:
     #: Most blobs of a metaball sum, most parts of a union.
     max_blobs: int
     max_parts: int
+    #: Small components: the weakest satellite blob (w = T (1 + this)) and the
+    #: smallest part's largest semi-axis.
+    min_satellite: float
+    min_part: float
     #: Marching cubes resolutions (points per axis of the bounding cube).
     mc_resolutions: tuple[int, int]
 
@@ -108,6 +119,8 @@ FAST = Profile(
     min_gap=0.1,
     max_blobs=4,
     max_parts=3,
+    min_satellite=0.1,
+    min_part=0.15,
     mc_resolutions=(112, 160),
 )
 LARGE = Profile(
@@ -119,6 +132,8 @@ LARGE = Profile(
     min_gap=0.002,
     max_blobs=6,
     max_parts=4,
+    min_satellite=0.005,
+    min_part=0.04,
     mc_resolutions=(128, 192),
 )
 PROFILES = {p.name: p for p in (FAST, LARGE)}
@@ -253,6 +268,8 @@ class FuzzSurface:
     mc_resolutions: tuple[int, int] = (112, 160)
     #: The sphere marching cubes samples (a tight one; see :func:`loosen`).
     mc_sphere: tuple | None = None
+    #: Why marching cubes cannot decide this case (then it is ambiguous).
+    mc_unreliable: str = ""
     _mc: dict = field(default_factory=dict, repr=False)
 
     def mc_mesh(self, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -275,6 +292,8 @@ class FuzzSurface:
     def reference(self) -> Reference:
         if self.construction is not None:
             return Reference(self.construction, "construction", self.reason)
+        if self.mc_unreliable:
+            return Reference(None, "marching-cubes", self.mc_unreliable)
         return marching_cubes_reference(self.mc_mesh, self.mc_resolutions)
 
     @cached_property
@@ -466,39 +485,57 @@ def metaball_chain(
 
 
 def _separated_metaballs(
-    centres: np.ndarray, weights: np.ndarray, widths: np.ndarray, eps: float = 0.01
+    centres: np.ndarray, weights: np.ndarray, widths: np.ndarray
 ) -> tuple[bool, float]:
     """Whether a metaball sum is provably one sphere per blob; and its feature size.
 
-    Let ``m_i`` be blob i and ``rho_i`` the radius where ``m_i = eps T / n``.
-    If the balls ``B(c_i, rho_i)`` are disjoint, a point lies in at most one,
-    and the other blobs add less than ``eps T`` there, so ``f > 0`` outside
-    every ball. Inside ball k the zero set lies in the shell where
-    ``m_k`` is in ``[T (1 - eps), T]``; there the radial derivative of
-    ``m_k`` (at least ``2 r / s_k^2 T (1 - eps)``) beats the gradient of the
-    others (at most ``2 rho_j / s_j^2 eps T / n`` each, as ``d exp(-d^2/s^2)``
-    decreases beyond ``s / sqrt 2 < rho_j``), so the zero set is a radial
-    graph over the sphere of directions: a sphere. Requires ``w_k > T / (1 -
-    eps)`` so that blob k alone reaches the threshold.
+    For some ``eps`` (0.01, 1e-3 or 1e-4), let ``m_i`` be blob i and ``rho_i``
+    the radius where ``m_i = eps T / n``. If the balls ``B(c_i, rho_i)`` are
+    disjoint, a point lies in at most one, and the other blobs add less than
+    ``eps T`` there, so ``f > 0`` outside every ball. Inside ball k, ``f < 0``
+    where ``m_k >= T`` (radius ``r_k``, which needs ``w_k > T``), and the zero
+    set lies in the shell where ``m_k`` is in ``(T (1 - eps), T]``. There the
+    radial derivative of ``m_k`` (at least ``2 r_k / s_k^2 T (1 - eps)``)
+    beats the gradient of the others (at most ``2 rho_j / s_j^2 eps T / n``
+    each, as ``d exp(-d^2/s^2)`` decreases beyond ``s / sqrt 2 < rho_j``), so
+    every ray from ``c_k`` crosses the zero set once: a radial graph over the
+    sphere of directions, hence a sphere.
     """
     n = len(weights)
     T = THRESHOLD
-    if np.any(weights <= T / (1 - eps) * 1.05):
-        return False, 0.0
-    rho = widths * np.sqrt(np.log(n * weights / (eps * T)))
-    dist = np.linalg.norm(centres[:, None] - centres[None], axis=2)
-    np.fill_diagonal(dist, np.inf)
-    if np.any(dist < rho[:, None] + rho[None, :]):
+    if np.any(weights <= T):
         return False, 0.0
     r_in = widths * np.sqrt(np.log(weights / T))  # radius where m_k = T
-    if np.any(rho / widths <= 1 / math.sqrt(2)):
-        return False, 0.0
-    others = float(np.sum(2 * rho / widths**2 * eps * T / n))
-    if np.any(2 * r_in / widths**2 * T * (1 - eps) <= others):
-        return False, 0.0
-    # Each blob is nearly the sphere of radius r_in: curvature about 1 / r_in.
-    gap = float(np.min(dist - r_in[:, None] - r_in[None, :]))
-    return True, float(min(r_in.min(), gap / 2))
+    dist = np.linalg.norm(centres[:, None] - centres[None], axis=2)
+    np.fill_diagonal(dist, np.inf)
+    for eps in (1e-2, 1e-3, 1e-4):
+        rho = widths * np.sqrt(np.log(n * weights / (eps * T)))
+        if np.any(dist < rho[:, None] + rho[None, :]) or np.any(rho / widths <= 2**-0.5):
+            continue
+        others = float(np.sum(2 * rho / widths**2 * eps * T / n))
+        if np.any(2 * r_in / widths**2 * T * (1 - eps) <= others):
+            continue
+        # Each blob is nearly the sphere of radius r_in: curvature about 1 / r_in.
+        gap = float(np.min(dist - r_in[:, None] - r_in[None, :])) if n > 1 else math.inf
+        return True, float(min(r_in.min(), gap / 2))
+    return False, 0.0
+
+
+def _small_isolated_blob(
+    centres: np.ndarray, weights: np.ndarray, widths: np.ndarray, spacing: float
+) -> str:
+    """Why marching cubes at ``spacing`` cannot be trusted, or "": a blob far
+    from the others (centres 2.5 widths apart) whose own sphere has a radius
+    below two grid cells could be missed by both resolutions alike."""
+    for k in range(len(weights)):
+        if weights[k] <= THRESHOLD:
+            continue
+        r = widths[k] * math.sqrt(math.log(weights[k] / THRESHOLD))
+        d = np.linalg.norm(np.delete(centres, k, axis=0) - centres[k], axis=1)
+        apart = bool(np.all(d > 2.5 * (np.delete(widths, k) + widths[k])))
+        if apart and r < 2 * spacing:
+            return f"blob {k} alone has radius {r:.3g}, below two cells ({spacing:.3g})"
+    return ""
 
 
 def metaball_cloud(
@@ -541,7 +578,10 @@ def metaball_cloud(
         mc_resolutions=mc_resolutions,
     )
     if not separated:
-        surf.feature = _feature_from_reference(surf)
+        spacing = 2 * radius / (mc_resolutions[-1] - 1)
+        surf.mc_unreliable = _small_isolated_blob(C, w, s, spacing)
+        if not surf.mc_unreliable:
+            surf.feature = _feature_from_reference(surf)
     return surf
 
 
@@ -876,6 +916,7 @@ def loosen(surface: FuzzSurface, scale: float) -> FuzzSurface:
         seed=surface.seed,
         mc_resolutions=surface.mc_resolutions,
         mc_sphere=surface.mc_sphere or surface.bounding_sphere,
+        mc_unreliable=surface.mc_unreliable,
     )
 
 
@@ -926,7 +967,7 @@ def gen_metaball_cloud(s: Sampler, prof: Profile) -> FuzzSurface:
     if layout == "satellite":
         # The last blob is weak and apart: alone, a small sphere of radius
         # about s sqrt(x) for w = T (1 + x), well away from the others.
-        weights[-1] = round(THRESHOLD * (1 + s.log_uniform(0.01, 0.3)), 4)
+        weights[-1] = round(THRESHOLD * (1 + s.log_uniform(prof.min_satellite, 0.3)), 4)
         widths[-1] = s.uniform(0.3, 0.5)
         main = np.array(centres[:-1])
         reach = float(np.linalg.norm(main, axis=1).max()) + max(widths[:-1]) * 2.2
@@ -948,11 +989,11 @@ def gen_primitives(s: Sampler, prof: Profile) -> FuzzSurface:
     combine = s.choice(("product", "min"))
     n = s.integer(1 if combine == "product" else 2, prof.max_parts)
     shapes = []
-    small = s.integer(0, n) if s.integer(0, 3) == 0 else -1
+    small = s.integer(0, n) if s.integer(0, 1) == 0 else -1
     for i in range(n):
         if s.choice(("ellipsoid", "torus")) == "ellipsoid" or i == small:
-            # One part in about eight is a small ellipsoid (a small component).
-            a = s.log_uniform(0.04, 0.3) if i == small else s.uniform(0.5, 1.0)
+            # Now and then a part is a small ellipsoid (a small component).
+            a = s.log_uniform(prof.min_part, 0.3) if i == small else s.uniform(0.5, 1.0)
             axes = (a, round(a * s.uniform(0.6, 1.0), 4), round(a * s.uniform(0.5, 1.0), 4))
             shapes.append(("ellipsoid", axes, a))
         else:
