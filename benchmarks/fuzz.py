@@ -24,7 +24,10 @@ Figures, per run (one surface, one method):
   wrong), listed in full in the JSON;
 
 and per surface ``ambiguous_references``: marching cubes at two resolutions
-disagreed, so the topology is not judged (the surface is still meshed).
+disagreed (or cannot see a small blob), so the topology is not judged (the
+surface is still meshed), and ``certified_disagreements``: both methods
+certified, but different topologies (one certificate is false; this needs no
+reference, so it also catches ambiguous cases).
 Each case line carries the ``spec`` that rebuilds the surface
 (``import fuzz_surfaces as fz; fz.dumbbell(...)``).
 """
@@ -76,8 +79,10 @@ def run(cases: int, seed: int, profile: fz.Profile, families: list[str], log) ->
             "reference_seconds": time.perf_counter() - t0,
         }
         surfaces.append(entry)
+        outcomes = []
         for method in fz.METHODS:
             out = fz.run_method(surf, method, profile)
+            outcomes.append(out)
             rec = out.as_dict()
             rec.update(case=i, family=family, failures=out.failures())
             rec["hang"] = out.status == "hang" or out.seconds > 2 * out.time_limit
@@ -91,7 +96,10 @@ def run(cases: int, seed: int, profile: fz.Profile, families: list[str], log) ->
                 + (f", certified={out.certified}" if out.status in ("ok", "budget") else "")
                 + (f"; FAILS {out.failures()}" if out.failures() else "")
             )
-        if any(
+        entry["certified_disagreement"] = fz.certified_disagreement(outcomes)
+        if entry["certified_disagreement"]:
+            log(f"[{i}] {surf.name}: the two methods certify different topologies")
+        if entry["certified_disagreement"] or any(
             r["failures"] or r["category"] in ("crash", "wrong-certified") for r in records[-2:]
         ):
             log(f"    spec: {surf.spec}")
@@ -108,6 +116,7 @@ def run(cases: int, seed: int, profile: fz.Profile, families: list[str], log) ->
         "hangs": sum(r["hang"] for r in records),
         "property_failures": sum(bool(r["failures"]) for r in records),
         "ambiguous_references": sum(1 for s in surfaces if "spec" in s and s["reference"] is None),
+        "certified_disagreements": sum(bool(s.get("certified_disagreement")) for s in surfaces),
         "ambiguous_runs": cat["ambiguous"],
         "generator_errors": sum(1 for s in surfaces if "generator_error" in s),
         "certified_runs": sum(r["certified"] for r in records),
@@ -160,7 +169,8 @@ def main(argv: list[str] | None = None) -> int:
     print("by method:", json.dumps(result["by_method"]))
     print("by family:", json.dumps(result["by_family"]))
     print(f"written {out}")
-    return 1 if result["figures"]["wrong_certified"] or result["figures"]["crashes"] else 0
+    fig = result["figures"]
+    return 1 if fig["wrong_certified"] or fig["crashes"] or fig["certified_disagreements"] else 0
 
 
 if __name__ == "__main__":

@@ -326,7 +326,15 @@ class FuzzSurface:
         return self.spec
 
 
+#: Marching cubes resolutions every builder uses unless told otherwise.
+DEFAULT_MC = (112, 160)
+
+
 def _spec(builder: str, **kwargs: Any) -> str:
+    """The call that rebuilds a surface (``mc_resolutions`` only when not the default)."""
+    if tuple(kwargs.get("mc_resolutions", DEFAULT_MC)) == DEFAULT_MC:
+        kwargs.pop("mc_resolutions", None)
+
     def fmt(v: Any) -> str:
         if isinstance(v, float | np.floating):
             return repr(float(v))
@@ -435,7 +443,7 @@ def metaball_chain(
     weights: Sequence[float],
     width: float,
     seed: int = 0,
-    mc_resolutions: tuple[int, int] = (112, 160),
+    mc_resolutions: tuple[int, int] = DEFAULT_MC,
 ) -> FuzzSurface:
     """Blobs of one width on a line: an exact solid of revolution (module docstring)."""
     c, u = np.asarray(centre, float), _unit(axis)
@@ -465,6 +473,7 @@ def metaball_chain(
         weights=tuple(weights),
         width=width,
         seed=seed,
+        mc_resolutions=mc_resolutions,
     )
     half = max(abs(lo), abs(hi))
     radius = 1.05 * math.sqrt(half**2 + ana.max_radius**2) + 0.05
@@ -543,7 +552,7 @@ def metaball_cloud(
     weights: Sequence[float],
     widths: Sequence[float],
     seed: int = 0,
-    mc_resolutions: tuple[int, int] = (112, 160),
+    mc_resolutions: tuple[int, int] = DEFAULT_MC,
 ) -> FuzzSurface:
     """A sum of Gaussians anywhere; construction when provably separated."""
     C = np.asarray(centres, float).reshape(-1, 3)
@@ -564,6 +573,7 @@ def metaball_cloud(
         weights=tuple(weights),
         widths=tuple(widths),
         seed=seed,
+        mc_resolutions=mc_resolutions,
     )
     separated, feature = _separated_metaballs(C, w, s)
     surf = FuzzSurface(
@@ -619,7 +629,7 @@ def primitives(
     parts: Sequence[tuple],
     combine: str = "product",
     seed: int = 0,
-    mc_resolutions: tuple[int, int] = (112, 160),
+    mc_resolutions: tuple[int, int] = DEFAULT_MC,
 ) -> FuzzSurface:
     """A union of separated ellipsoids and ring tori.
 
@@ -692,7 +702,13 @@ def primitives(
 
     centre = C.mean(axis=0)
     radius = float(np.max(np.linalg.norm(C - centre, axis=1) + B)) * 1.05 + 0.1
-    spec = _spec("primitives", parts=tuple(parts), combine=combine, seed=seed)
+    spec = _spec(
+        "primitives",
+        parts=tuple(parts),
+        combine=combine,
+        seed=seed,
+        mc_resolutions=mc_resolutions,
+    )
     eul = tuple(sorted(eulers, reverse=True))
     return FuzzSurface(
         "primitives",
@@ -714,7 +730,7 @@ def perturbed_sphere(
     modes: Sequence[tuple] = (),
     bumps: Sequence[tuple] = (),
     seed: int = 0,
-    mc_resolutions: tuple[int, int] = (112, 160),
+    mc_resolutions: tuple[int, int] = DEFAULT_MC,
 ) -> FuzzSurface:
     """``|p - c| - rho(u)``: a star-shaped radial graph, hence a sphere.
 
@@ -754,6 +770,7 @@ def perturbed_sphere(
         modes=tuple(modes),
         bumps=tuple(bumps),
         seed=seed,
+        mc_resolutions=mc_resolutions,
     )
     surf = FuzzSurface(
         "perturbed_sphere",
@@ -790,7 +807,7 @@ def dumbbell(
     neck: float | None = None,
     gap: float | None = None,
     seed: int = 0,
-    mc_resolutions: tuple[int, int] = (112, 160),
+    mc_resolutions: tuple[int, int] = DEFAULT_MC,
 ) -> FuzzSurface:
     """Two blobs on an axis, joined by a neck or split by a gap.
 
@@ -843,6 +860,7 @@ def dumbbell(
         middle=middle,
         **({"neck": neck} if neck is not None else {"gap": gap}),
         seed=seed,
+        mc_resolutions=mc_resolutions,
     )
     return FuzzSurface(
         kind,
@@ -863,7 +881,7 @@ def sphere_pair(
     radii: tuple[float, float],
     gap: float,
     seed: int = 0,
-    mc_resolutions: tuple[int, int] = (112, 160),
+    mc_resolutions: tuple[int, int] = DEFAULT_MC,
 ) -> FuzzSurface:
     """Two spheres ``gap`` apart, as the product of their functions (like two_spheres)."""
     c, u = np.asarray(centre, float), _unit(axis)
@@ -883,6 +901,7 @@ def sphere_pair(
         radii=tuple(radii),
         gap=gap,
         seed=seed,
+        mc_resolutions=mc_resolutions,
     )
     return FuzzSurface(
         "near_touching",
@@ -1491,6 +1510,13 @@ def _measure(out: Outcome, surf: FuzzSurface, mesh) -> None:
         g = central_gradient(surf.f, V, 1e-6 * R)
         dist = np.abs(surf.f(V)) / np.maximum(np.linalg.norm(g, axis=1), 1e-300)
         out.surface_distance = float(dist.max() / R)
+
+
+def certified_disagreement(outcomes: Sequence[Outcome]) -> bool:
+    """Two runs on one surface that both certify their topology, yet differ:
+    one certificate is false, whatever the reference (even an ambiguous one)."""
+    certified = {o.topology for o in outcomes if o.status == "ok" and o.certified}
+    return len(certified) > 1
 
 
 def classify(o: Outcome) -> str:
