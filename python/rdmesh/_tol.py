@@ -88,3 +88,8 @@ DIRECTION_EPS = 1e-12
 # -- regions in the report ------------------------------------------------------
 #: Points within this (times R) belong to one named region.
 REGION_LINK = 0.05
+
+# -- proofs by interval arithmetic (expression surfaces) ---------------------------
+#: Pieces of a Voronoi edge are not halved below this, times R: an unsettled
+#: piece there (a tangency, a singular point) leaves the edge unresolved.
+PROOF_FLOOR = 1e-9

@@ -9,6 +9,7 @@ from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria, Sizing
 from .refine.mesher import Budget, Mesher
 from .refine.methods import METHODS, TOPOLOGIES
+from .surfaces.expressions import Expression
 from .surfaces.oracle import ImplicitSurface
 
 
@@ -26,6 +27,7 @@ def mesh_surface(
     seed_resolution: int = 64,
     progress: bool | Callable[[dict], None] = False,
     workers: int = 1,
+    certify: bool | None = None,
 ) -> SurfaceMesh:
     """Mesh an implicit surface by restricted Delaunay refinement.
 
@@ -81,6 +83,15 @@ def mesh_surface(
         Threads that evaluate facets at once. numpy releases the GIL, so 2
         uses both cores of a 2-core machine; ``f`` must then be thread-safe
         (pure numpy functions are).
+    certify : bool, optional
+        Prove what interval arithmetic can prove (expression surfaces only:
+        :meth:`ImplicitSurface.from_expression`). It seeds every component
+        with proof (an interval subdivision, Plantinga-Vegter/Snyder), and
+        it proves the crossings of every Voronoi edge, refining until each
+        restricted facet's dual edge crosses once, transversally, and every
+        other edge not at all. Default (None): on for expression surfaces,
+        off otherwise; True for another surface raises ValueError. The report
+        gives each test's level (``proven`` or ``sampled``).
 
     Returns
     -------
@@ -139,6 +150,16 @@ def mesh_surface(
     if isinstance(workers, float):
         raise ValueError(f"workers must be an integer from 1 to 64, got {workers!r}")
     workers = integer("workers", workers, 1, 64)
+    expression = isinstance(surface.f, Expression)
+    if certify is None:
+        certify = expression
+    elif certify not in (True, False):
+        raise ValueError(f"certify must be True, False or None, got {certify!r}")
+    elif certify and not expression:
+        raise ValueError(
+            "certify=True needs an expression surface (ImplicitSurface.from_expression): "
+            "nothing can be proven about a plain function between its samples"
+        )
     budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
     if progress is not True and progress is not False and not callable(progress):
         raise ValueError(f"progress must be True, False or a callable, got {progress!r}")
@@ -152,6 +173,7 @@ def mesh_surface(
         seed_resolution=seed_resolution,
         progress=progress if callable(progress) else None,
         workers=workers,
+        certify=bool(certify),
     )
     if progress is True:
         from .progress import ProgressBar

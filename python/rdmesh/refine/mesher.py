@@ -81,6 +81,7 @@ class Mesher:
         seed_resolution: int = 64,
         progress: Callable[[dict], None] | None = None,
         workers: int = 1,
+        certify: bool = False,
     ) -> None:
         self.surface = surface
         self.criteria = criteria
@@ -91,6 +92,7 @@ class Mesher:
         self.seed_resolution = seed_resolution
         self.progress = progress
         self.workers = workers
+        self.certify = certify
         self.timer = PhaseTimer()
         self.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
         self.samples = Samples(self.rdt)
@@ -110,8 +112,9 @@ class Mesher:
         rng = np.random.default_rng(self.seed)
         with self.timer("seeding"):
             plan = METHODS[self.method](
-                self.surface, self.criteria, self.topology, rng, self.seed_resolution
-            )
+                self.surface, self.criteria, self.topology, rng, self.seed_resolution,
+                self.certify,
+            )  # fmt: skip
         seeds, stop = plan.seeds, None
         cap = self.budget.max_vertices
         if cap is not None and len(seeds) > cap:
@@ -244,6 +247,8 @@ def _result(m: Mesher, plan: Plan, t0: float, evals0: int, stop: str | None) -> 
                 complete=not stop,
                 critical=plan.critical,
                 floor=plan.floor_report,
+                discovery=plan.discovery,
+                proof=m.certify,
                 quick=bool(stop and stop.startswith("time_limit")),
             )
     except KeyboardInterrupt:

@@ -22,11 +22,10 @@ from scipy.spatial import cKDTree
 
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
-from ..sampling.boxes import interval_boxes
 from ..sampling.critical import CriticalPoints, critical_points
+from ..sampling.discovery import Discovery, discover
 from ..sampling.grid import GridScan, grid_scan
 from ..sampling.probes import Probes, surface_probes
-from ..surfaces.expressions import Expression
 from ..surfaces.oracle import ImplicitSurface
 from ..topology.tests import CELL_NORMAL_ANGLE, PROBE_TARGET, TESTS
 from .criteria import FacetCriteria
@@ -50,6 +49,7 @@ class Plan:
     report_probes : the probes the report's sampled tests use.
     critical : critical points of a height function, when the method seeds with them.
     floor_report : what the report says of the spacing floor.
+    discovery : the interval subdivision that seeded every component (certify mode).
     """
 
     seeds: np.ndarray
@@ -58,6 +58,7 @@ class Plan:
     report_probes: Callable[[], Probes]
     critical: CriticalPoints | None = None
     floor_report: dict | None = None
+    discovery: Discovery | None = None
 
 
 def boissonnat_oudot(
@@ -66,10 +67,12 @@ def boissonnat_oudot(
     topology: str,
     rng: np.random.Generator,
     resolution: int,
+    certify: bool = False,
 ) -> Plan:
-    """Seeds from the grid scan; stages as CGAL's Surface_mesher with its manifold tags."""
+    """Seeds from the grid scan (and, to certify, from the interval subdivision);
+    stages as CGAL's Surface_mesher with its manifold tags."""
     spacing = criteria.radius_bound if isinstance(criteria.radius_bound, float) else None
-    scan = _scan(surface, rng, resolution, spacing)
+    scan, found = _scan(surface, rng, resolution, spacing, certify)
     stages: list[Stage] = [FacetStage("facet", core.BAD | core.TOPO, "unless-bad")]
     if topology != "non-manifold":
         allow = topology == "manifold-with-boundary"
@@ -78,11 +81,14 @@ def boissonnat_oudot(
             TestStage("vertex", "disk"),
         ]
     stages.append(TestStage("isolated", "isolated"))
+    if certify:
+        stages.append(TestStage("proven_voronoi_edge", "proven_voronoi_edge"))
     return Plan(
         seeds=scan.seeds,
         phases=[stages],
         topology_floor=MIN_SPACING * surface.radius,
         report_probes=lambda: Probes.on(surface, scan.crossings, scan.spacing),
+        discovery=found,
     )
 
 
@@ -92,9 +98,11 @@ def topological_ball(
     topology: str,
     rng: np.random.Generator,
     resolution: int,
+    certify: bool = False,
 ) -> Plan:
-    """Seeds from the grid scan plus the critical points of a random height;
-    the topological-ball tests, then the criteria while keeping them."""
+    """Seeds from the grid scan (to certify, from the interval subdivision
+    instead) plus the critical points of a random height; the
+    topological-ball tests, then the criteria while keeping them."""
     R = surface.radius
     bound = criteria.radius_bound
     spacing = bound if isinstance(bound, float) else None
@@ -102,13 +110,15 @@ def topological_ball(
         # No size bound: seeds only need to find the components; the tests
         # add what the topology needs.
         spacing = TB_SEED_SPACING * R
-    scan = _scan(surface, rng, resolution, spacing)
+    scan, found = _scan(surface, rng, resolution, spacing, certify)
     h, seeds = scan.spacing, scan.seeds
     crit = critical_points(surface, np.concatenate([seeds, scan.crossings]), rng, h)
     if len(crit.points):
-        # Grid seeds right next to a critical point only add short edges.
-        d, _ = cKDTree(crit.points).query(seeds)
-        seeds = np.concatenate([crit.points, seeds[d > 0.5 * h]])
+        # Seeds right next to a critical point only add short edges (the
+        # discovery's points, which prove every component seeded, stay).
+        proof = found.points if found is not None else np.zeros((0, 3))
+        anchors = np.concatenate([proof, _away(crit.points, proof, 0.5 * h)])
+        seeds = np.concatenate([anchors, _away(seeds, anchors, 0.5 * h)])
     probes = Probes.on(surface, surface_probes(surface, scan.crossings, h, rng, PROBE_TARGET), h)
 
     def tests(kinds: tuple[str, ...]) -> list[Stage]:
@@ -119,6 +129,8 @@ def topological_ball(
         FacetStage("facet", core.BAD, False),
         *tests(TESTS[1:]),
     ]
+    if certify:
+        geometric.append(TestStage("proven_voronoi_edge", "proven_voronoi_edge"))
     floor = TB_FLOOR * R
     return Plan(
         seeds=seeds,
@@ -126,6 +138,7 @@ def topological_ball(
         topology_floor=floor,
         report_probes=lambda: probes,
         critical=crit,
+        discovery=found,
         floor_report={"topology": f"{TOPOLOGY_FLOOR:g} x radius_bound"}
         if bound is not None
         else {"topology": floor},
@@ -133,26 +146,36 @@ def topological_ball(
 
 
 def _scan(
-    surface: ImplicitSurface, rng: np.random.Generator, resolution: int, spacing: float | None
-) -> GridScan:
-    """The grid scan; for expression surfaces, plus a point in each box of the
-    interval subdivision that may hold the surface and has no grid crossing
-    near it (small components the grid misses)."""
+    surface: ImplicitSurface,
+    rng: np.random.Generator,
+    resolution: int,
+    spacing: float | None,
+    certify: bool,
+) -> tuple[GridScan, Discovery | None]:
+    """The grid scan (seeds, probes, the bounding-sphere check); to certify,
+    plus the interval subdivision's points, which include one on every
+    component when it is proven (:mod:`rdmesh.sampling.discovery`)."""
     scan = grid_scan(surface, rng, resolution, spacing=spacing)
-    if not isinstance(surface.f, Expression):
-        return scan
-    found = interval_boxes(surface, surface.f, scan.spacing, rng, scan.crossings).points
-    if len(found) == 0:
-        return scan
-    d, _ = cKDTree(scan.crossings).query(found)
-    extra = found[d > scan.spacing]
-    if len(extra):
-        log.info("interval boxes: %d seeds away from every grid crossing", len(extra))
-    return GridScan(
-        np.concatenate([scan.seeds, extra]),
-        np.concatenate([scan.crossings, extra]),
-        scan.spacing,
+    if not certify:
+        return scan, None
+    found = discover(surface, surface.f, rng)
+    if len(found.points) == 0:
+        return scan, found
+    # Grid seeds right next to a discovery point only add short edges.
+    seeds = np.concatenate([found.points, _away(scan.seeds, found.points, 0.5 * scan.spacing)])
+    log.info(
+        "discovery: %d seeds, %d of them from the grid", len(seeds), len(seeds) - len(found.points)
     )
+    scan = GridScan(seeds, np.concatenate([scan.crossings, found.points]), scan.spacing)
+    return scan, found
+
+
+def _away(points: np.ndarray, anchors: np.ndarray, distance: float) -> np.ndarray:
+    """The points farther than ``distance`` from every anchor."""
+    if len(anchors) == 0 or len(points) == 0:
+        return points
+    d, _ = cKDTree(anchors).query(points)
+    return points[d > distance]
 
 
 #: The methods by name.

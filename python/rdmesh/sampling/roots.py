@@ -139,7 +139,7 @@ def line_crossings(
             seg, lo, hi, rising = (np.concatenate(p) for p in parts)
     if seg.size == 0:
         return _empty()
-    root, ok = _roots(surface, origin[seg], direction[seg], lo, hi, xatol)
+    root, ok = refine_brackets(surface, origin[seg], direction[seg], lo, hi, xatol)
     failed = np.unique(seg[~ok])
     seg, root, rising = seg[ok], root[ok], rising[ok]
     order = np.lexsort((root, seg))
@@ -160,7 +160,8 @@ def _coords(o: np.ndarray, d: np.ndarray) -> tuple:
     return (o[:, 0], o[:, 1], o[:, 2], d[:, 0], d[:, 1], d[:, 2])
 
 
-def _roots(surface, o, d, lo, hi, xatol):
+def refine_brackets(surface, o, d, lo, hi, xatol):
+    """Roots of ``f(o + s d)`` in the brackets ``[lo, hi]``: (s, converged)."""
     res = elementwise.find_root(
         _line_function(surface),
         (lo, hi),

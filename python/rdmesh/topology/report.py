@@ -14,12 +14,13 @@ import numpy as np
 
 from .._tol import REGION_LINK
 from ..sampling.critical import CriticalPoints
+from ..sampling.discovery import Discovery
 from ..sampling.probes import Probes
 from .complex import euler_characteristics
 from .regions import describe_regions, regions
 from .singular import singular_points
 from .snapshot import Snapshot
-from .tests import TESTS
+from .tests import TESTS, Violations
 
 _BASIS = {
     "voronoi_edge": (
@@ -75,6 +76,8 @@ def topology_report(
     critical: CriticalPoints | None = None,
     floor: dict | float | None = None,
     quick: bool = False,
+    discovery: Discovery | None = None,
+    proof: bool = False,
 ) -> dict[str, Any]:
     """The topology report of a finished run (see :attr:`SurfaceMesh.report`).
 
@@ -85,6 +88,9 @@ def topology_report(
     characteristics. ``quick`` (a run stopped by its time limit) leaves out
     the sampled tests and the singular-point search, whose cost grows with
     the mesh, so that the limit holds; the report then certifies nothing.
+    ``discovery`` (the interval subdivision's seeding) and ``proof`` (the
+    Voronoi edges' crossings checked by interval arithmetic) make those steps
+    ``proven`` where they held.
     """
     tests: dict[str, dict[str, Any]] = {}
     where = []
@@ -117,24 +123,30 @@ def topology_report(
                 "tests": _BASIS[kind][1],
             }
     tests = {k: tests[k] for k in TESTS}
+    link = REGION_LINK * surface.radius
+    if proof and not quick:
+        _prove_edges(tests, snap.test("proven_voronoi_edge"), link)
     chi = euler_characteristics(faces, n_mesh_vertices)
     # The output faces are the restricted facets: every edge in two faces is
     # the Voronoi-facet test, one fan per vertex is the disk test.
     closed = bool(len(faces) and tests["voronoi_facet"]["held"] and tests["disk"]["held"])
-    link = REGION_LINK * surface.radius
     unresolved_regions = regions(unresolved, link)
     violation_regions = regions(np.concatenate(where) if where else np.zeros((0, 3)), link)
     search = probes is not None and not quick
     singular = singular_points(surface, probes) if search else np.zeros((0, 3))
     all_held = all(t["held"] is True for t in tests.values())
+    seeding = _seeding(discovery, link)
     holds = bool(
         all_held and complete and len(unresolved) == 0 and len(faces) > 0 and len(singular) == 0
     )
     report: dict[str, Any] = {
         "method": method,
         "tbp_holds": holds,
-        "certified": holds and all(t["level"] == "proven" for t in tests.values()),
+        "certified": holds
+        and all(t["level"] == "proven" for t in tests.values())
+        and seeding["level"] == "proven",
         "tests": tests,
+        "seeding": seeding,
         "components": len(chi),
         "euler": chi,
         "closed_manifold": closed,
@@ -167,6 +179,56 @@ def topology_report(
         }
     report["statement"] = _statement(report)
     return report
+
+
+def _prove_edges(tests: dict[str, dict[str, Any]], proven: Violations, link: float) -> None:
+    """Raise voronoi_edge (and voronoi_facet, exact given it) to ``proven``
+    where the interval check of every Voronoi edge held."""
+    edge = tests["voronoi_edge"]
+    held = proven.count == 0 and len(proven.stuck) == 0
+    edge["proof"] = {
+        "held": held,
+        "violations": proven.count,
+        "unsettled_regions": regions(proven.stuck, link),
+        "basis": "interval arithmetic: Snyder's root isolation on every Voronoi edge",
+    }
+    if not edge["held"]:
+        return
+    if not held:
+        edge.update(held=False, level="failed")
+        return
+    edge.update(
+        level="proven",
+        basis="proven",
+        tests="every Voronoi edge crosses the surface as the restricted facets say: once, "
+        "transversally, for each restricted facet's dual edge and never for the others "
+        "(interval root isolation, proven up to the root tolerance)",
+    )
+    facet = tests["voronoi_facet"]
+    if facet["held"]:
+        facet["level"] = "proven"
+
+
+def _seeding(discovery: Discovery | None, link: float) -> dict[str, Any]:
+    """How the components were found, and at which level."""
+    if discovery is None:
+        return {
+            "level": "sampled",
+            "basis": "a grid scan (and critical points of a height function): components "
+            "smaller than about two grid cells can be missed",
+        }
+    return {
+        "level": "proven" if discovery.proven else "sampled",
+        "basis": "interval subdivision (Snyder's box condition): a seed on every component"
+        if discovery.proven
+        else "interval subdivision left boxes or edges unresolved there: components may "
+        "be missed there",
+        "seeds": len(discovery.points),
+        "boxes": discovery.boxes,
+        "smallest_box": float(discovery.side),
+        "interval_evaluations": discovery.evaluations,
+        "unresolved_regions": regions(discovery.unresolved, link),
+    }
 
 
 def _level(held: bool, basis: str) -> str:

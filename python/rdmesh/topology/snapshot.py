@@ -20,6 +20,7 @@ from ..sampling.probes import Probes, unit_normals
 from ..surfaces.oracle import ImplicitSurface
 from .complex import ComplexStatus, complex_status
 from .loops import LoopMemo
+from .proven import proven_edge_test
 from .tests import (
     SILHOUETTE_ANGLE,
     Violations,
@@ -124,6 +125,8 @@ class Snapshot:
                 self.surface, self.rdt, self.vertices, tri, centres, self.status,
                 probes, self.tree, self.memo,
             )  # fmt: skip
+        if kind == "proven_voronoi_edge":
+            return proven_edge_test(self.surface, self.rdt, self.vertices, tri, centres)
         if kind == "isolated":
             return isolated_test(self.surface, self.vertices, tri, self.tree)
         if kind == "silhouette":
