@@ -56,7 +56,13 @@ class SurfaceMesh:
             ``disk``, ``isolated``, ``silhouette``): ``held``, ``level``
             (``proven``, ``sampled``, ``failed`` or ``not tested``), ``violations`` at the end,
             ``repaired`` (points inserted to repair it), ``basis`` ("exact",
-            "sampled", ...) and what it checks.
+            "sampled", ...) and what it checks. With ``certify``,
+            ``voronoi_edge`` also has ``proof``: the interval check of every
+            Voronoi edge's crossings.
+        ``seeding``
+            How the components were found: ``level`` ``proven`` (interval
+            subdivision, certify mode: a seed on every component) or
+            ``sampled`` (grid scan), with the boxes' figures.
         ``components``, ``euler``, ``closed_manifold``
             Of the output mesh.
         ``unresolved_regions``, ``violation_regions``
@@ -100,12 +106,15 @@ class SurfaceMesh:
 
     @property
     def topology_certified(self) -> bool:
-        """True only when every topological-ball test is proven (report ``certified``).
+        """True only when every topological-ball test and the seeding are proven
+        (report ``certified``).
 
         Tests that held only on samples (see each test's ``level`` in
-        :attr:`report`) do not certify: today the crossing search, the loop
-        test and the silhouette test are sampled, so this is False for every
-        surface; ``report["tbp_holds"]`` says whether all tests held.
+        :attr:`report`) do not certify. In certify mode (expression surfaces)
+        the seeding, the Voronoi-edge crossings and the Voronoi-facet crossing
+        count are proven; the loop and silhouette tests are still sampled, so
+        this is False for every surface today; ``report["tbp_holds"]`` says
+        whether all tests held.
         """
         return bool(self.report.get("certified", False))
 

@@ -133,7 +133,8 @@ def discover(surface: ImplicitSurface, expr: Expression, rng: np.random.Generato
     iso = isolate_roots(expr, a, b, EDGE_FLOOR * R)
     evaluations += iso.boxes
     d = b[iso.segment] - a[iso.segment]
-    t, ok = refine_brackets(surface, a[iso.segment], d, iso.lo, iso.hi, SHOT_ATOL * R / size)
+    longest = float(row_norms(d).max()) if len(d) else 1.0
+    t, ok = refine_brackets(surface, a[iso.segment], d, iso.lo, iso.hi, SHOT_ATOL * R / longest)
     points = a[iso.segment] + t[:, None] * d
     label = _linked(points, iso, box_edges, MERGE * R)
     # One point per class of roots proven to share a component.

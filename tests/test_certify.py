@@ -1,0 +1,143 @@
+"""Certify mode (issue 13): proven component discovery, proven root isolation,
+and the Voronoi edges' crossings proven by interval arithmetic."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rdmesh
+from rdmesh.sampling.discovery import discover
+from rdmesh.sampling.isolate import isolate_roots
+from rdmesh.surfaces.expressions import parse_expression
+
+#: A unit sphere and a sphere of radius 0.02 (the grid's cell is 0.0625) (issue 13).
+SMALL = "min(sqrt(x**2+y**2+z**2)-1, sqrt((x-1.5)**2+(y-0.3)**2+(z-0.2)**2)-0.02)"
+
+
+def _surface(text, radius=2.0):
+    return rdmesh.ImplicitSurface.from_expression(text, bounding_sphere=((0, 0, 0), radius))
+
+
+@pytest.mark.parametrize(
+    ("method", "radius_bound"), [("topological-ball", None), ("boissonnat-oudot", 0.2)]
+)
+def test_issue_example_keeps_the_small_component_with_proven_seeding(method, radius_bound):
+    m = rdmesh.mesh_surface(_surface(SMALL), method=method, radius_bound=radius_bound)
+    topo = m.topology()
+    assert topo["components"] == 2 and topo["euler"] == [2, 2]
+    assert m.is_closed_manifold()
+    centre = np.array([1.5, 0.3, 0.2])
+    near = np.linalg.norm(m.vertices - centre, axis=1) < 0.05
+    assert near.sum() >= 4
+    assert np.allclose(np.linalg.norm(m.vertices[near] - centre, axis=1), 0.02, atol=1e-9)
+    rep = m.report
+    assert rep["seeding"]["level"] == "proven"
+    assert rep["tests"]["voronoi_edge"]["level"] == "proven"
+    assert rep["tests"]["voronoi_edge"]["proof"]["held"]
+    # Loops and silhouettes are still sampled: no certificate is claimed.
+    assert rep["tests"]["silhouette"]["level"] == "sampled"
+    assert not m.topology_certified
+
+
+# Components that the seeding grid (64 cells across the ball) cannot see:
+# (expression, bounding radius, centres and radii of the spheres).
+HARD = {
+    "radius-0.5%": (
+        "min(x**2+y**2+z**2-1, (x-1.3)**2+(y-0.1)**2+z**2-0.01**2)",
+        2.0,
+        [((0, 0, 0), 1.0), ((1.3, 0.1, 0), 0.01)],
+    ),
+    "three-specks": (
+        "min(min(x**2+y**2+z**2-0.25, (x-1)**2+y**2+z**2-0.004**2), "
+        "(x+0.3)**2+(y-1.1)**2+(z-0.4)**2-0.003**2)",
+        1.6,
+        [((0, 0, 0), 0.5), ((1, 0, 0), 0.004), ((-0.3, 1.1, 0.4), 0.003)],
+    ),
+    "gap-0.2%": (
+        "min(sqrt(x**2+y**2+z**2)-1, sqrt((x-2.004)**2+y**2+z**2)-1)",
+        3.2,
+        [((0, 0, 0), 1.0), ((2.004, 0, 0), 1.0)],
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(HARD))
+def test_discovery_puts_a_point_on_every_component(case):
+    text, radius, spheres = HARD[case]
+    s = _surface(text, radius)
+    found = discover(s, s.f, np.random.default_rng(3))
+    assert found.proven and len(found.unresolved) == 0
+    # Every point is on the surface, and every sphere has one.
+    assert np.all(np.abs(s(found.points)) < 1e-7)
+    for centre, r in spheres:
+        d = np.abs(np.linalg.norm(found.points - np.array(centre), axis=1) - r)
+        assert d.min() < 1e-7 * radius, (centre, r)
+
+
+def test_discovery_leaves_singular_and_undefined_regions_unresolved():
+    """Two spheres touching at (1, 0, 0), where grad f = 0: the boxes there
+    never settle, so the discovery is not proven and names the region; the
+    run still returns, uncertified, without an exception. A function
+    undefined across the surface (sqrt of x < 0) is not proven either."""
+    text = "(x**2+y**2+z**2-1)*((x-2)**2+y**2+z**2-1)"
+    s = _surface(text, 3.5)
+    found = discover(s, s.f, np.random.default_rng(0))
+    assert not found.proven
+    assert np.linalg.norm(found.unresolved - [1, 0, 0], axis=1).min() < 0.01
+    m = rdmesh.mesh_surface(_surface(text, 3.5), method="topological-ball")
+    assert m.report["seeding"]["level"] == "sampled"
+    assert m.report["seeding"]["unresolved_regions"]
+    assert not m.topology_certified
+    s = _surface("sqrt(x + 0.5) + y**2 + z**2 - 0.5", 2.0)
+    found = discover(s, s.f, np.random.default_rng(0))
+    assert not found.proven and len(found.unresolved)
+
+
+def test_isolation_counts_close_pairs_and_flags_tangency():
+    """Two roots 2e-4 apart are both isolated; a double root is left unresolved
+    (never counted as 0 or 2)."""
+    close = parse_expression("(x - 0.5)**2 - 1e-8 + 0*y + 0*z")
+    double = parse_expression("(x - 0.5)**2 + 0*y + 0*z")
+    a = np.array([[0.0, 0.0, 0.0]])
+    b = np.array([[1.0, 0.0, 0.0]])
+    iso = isolate_roots(close, a, b, 1e-12)
+    assert iso.resolved[0] and iso.count[0] == 2
+    assert np.all((iso.lo <= 0.5 - 1e-4 + 1e-12) | (iso.hi >= 0.5 + 1e-4 - 1e-12))
+    assert np.all(iso.hi - iso.lo > 0)
+    iso = isolate_roots(double, a, b, 1e-9)
+    assert not iso.resolved[0] and len(iso.pending_segment)
+
+
+def test_isolation_matches_dense_sampling_on_random_segments():
+    expr = parse_expression("x**4 - 5*x**2 + y**4 - 5*y**2 + z**4 - 5*z**2 + 11.8")
+    rng = np.random.default_rng(1)
+    a = rng.uniform(-2.5, 2.5, (3000, 3))
+    b = a + rng.normal(size=(3000, 3))
+    iso = isolate_roots(expr, a, b, 1e-10)
+    t = np.linspace(0, 1, 4001)
+    v = expr((a[:, None, :] + t[None, :, None] * (b - a)[:, None, :]).reshape(-1, 3))
+    dense = (np.diff(np.sign(v.reshape(len(a), -1)), axis=1) != 0).sum(axis=1)
+    assert iso.resolved.all()
+    # Dense sampling can only miss roots, never invent them.
+    assert np.all(iso.count >= dense)
+    assert (iso.count == dense).mean() > 0.99
+    # Each bracket holds a sign change of f.
+    p = lambda s: a[iso.segment] + s[:, None] * (b - a)[iso.segment]  # noqa: E731
+    assert np.all(np.sign(expr(p(iso.lo))) != np.sign(expr(p(iso.hi))))
+
+
+def test_certify_needs_an_expression():
+    s = rdmesh.surfaces.sphere()
+    with pytest.raises(ValueError, match="expression"):
+        rdmesh.mesh_surface(s, certify=True)
+    with pytest.raises(ValueError, match="certify"):
+        rdmesh.mesh_surface(_surface("x**2+y**2+z**2-1"), certify="yes")
+
+
+def test_sampled_mode_says_so():
+    m = rdmesh.mesh_surface(
+        _surface("x**2+y**2+z**2-1"), method="topological-ball", certify=False
+    )
+    assert m.report["seeding"]["level"] == "sampled"
+    assert m.report["tests"]["voronoi_edge"]["level"] == "sampled"
+    assert "proof" not in m.report["tests"]["voronoi_edge"]
