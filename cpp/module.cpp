@@ -297,6 +297,19 @@ PYBIND11_MODULE(_rdt, m) {
           "the polygon edge from vertex j to j+1 (cyclic), -1 for a dummy). "
           "Raises ValueError for ids out of range or pairs that are not edges.")
       .def(
+          "voronoi_cell_boxes",
+          [](RestrictedDelaunay& self, const IdArray& ids) {
+            if (ids.ndim() != 1) throw std::invalid_argument("ids must have shape (k,)");
+            const std::vector<std::int64_t> v = copy_of<std::int64_t>(ids);
+            std::vector<double> out =
+                locked(self, [&] { return self.voronoi_cell_boxes(v.data(), v.size()); });
+            return to_numpy(out, {static_cast<py::ssize_t>(v.size()), 2, 3});
+          },
+          py::arg("ids"),
+          "Bounding boxes (k, 2, 3) (lo, hi) of the Voronoi cells of samples ids: the "
+          "extremes of the circumcentres of their incident cells. Raises ValueError "
+          "for ids out of range.")
+      .def(
           "delaunay_edges",
           [](RestrictedDelaunay& self, const py::object& ids) {
             std::vector<std::int64_t> v;

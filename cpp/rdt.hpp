@@ -176,6 +176,14 @@ class RestrictedDelaunay {
   std::vector<std::int64_t> delaunay_edges(const std::int64_t* ids,
                                            std::size_t n) const;
 
+  // Bounding boxes of the Voronoi cells of the given samples (with the
+  // dummies: inside the ball the same cells as without them), as 6 doubles
+  // per sample (lo then hi): the extremes of the circumcentres of the cells
+  // incident to each sample; +-inf if one is infinite.  Throws
+  // std::invalid_argument for ids out of range.  Not const: it caches
+  // circumcentres.
+  std::vector<double> voronoi_cell_boxes(const std::int64_t* ids, std::size_t n);
+
   std::size_t number_of_samples() const { return samples_.size(); }
   std::size_t number_of_cells() const { return dt_.number_of_finite_cells(); }
   std::vector<double> samples() const;

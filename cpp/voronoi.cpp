@@ -2,6 +2,7 @@
 // the topological-ball facet tests.  Geometry and bookkeeping only: which
 // facets to test, and how, is Python's business.
 #include <algorithm>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -159,6 +160,39 @@ std::vector<std::int64_t> RestrictedDelaunay::delaunay_edges(
     if (s >= 2 && out[s - 2] == x && out[s - 1] == y) continue;
     out.push_back(x);
     out.push_back(y);
+  }
+  return out;
+}
+
+std::vector<double> RestrictedDelaunay::voronoi_cell_boxes(const std::int64_t* ids,
+                                                           std::size_t n) {
+  const std::size_t m = samples_.size();
+  for (std::size_t k = 0; k < n; ++k) check_id(ids[k], m);
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> out(6 * n);
+  std::vector<Cell_handle> star;
+  for (std::size_t k = 0; k < n; ++k) {
+    double* box = &out[6 * k];
+    for (int d = 0; d < 3; ++d) {
+      box[d] = inf;
+      box[3 + d] = -inf;
+    }
+    star.clear();
+    dt_.incident_cells(samples_[ids[k]], std::back_inserter(star));
+    for (Cell_handle c : star) {
+      if (dt_.is_infinite(c)) {
+        for (int d = 0; d < 3; ++d) {
+          box[d] = -inf;
+          box[3 + d] = inf;
+        }
+        break;
+      }
+      const auto& cc = circumcentre(c);
+      for (int d = 0; d < 3; ++d) {
+        box[d] = std::min(box[d], cc[d]);
+        box[3 + d] = std::max(box[3 + d], cc[d]);
+      }
+    }
   }
   return out;
 }

@@ -21,7 +21,7 @@ def _surface(text, radius=2.0):
 @pytest.mark.parametrize(
     ("method", "radius_bound"), [("topological-ball", None), ("boissonnat-oudot", 0.2)]
 )
-def test_issue_example_keeps_the_small_component_with_proven_seeding(method, radius_bound):
+def test_issue_example_is_certified_with_both_components(method, radius_bound):
     m = rdmesh.mesh_surface(_surface(SMALL), method=method, radius_bound=radius_bound)
     topo = m.topology()
     assert topo["components"] == 2 and topo["euler"] == [2, 2]
@@ -34,9 +34,9 @@ def test_issue_example_keeps_the_small_component_with_proven_seeding(method, rad
     assert rep["seeding"]["level"] == "proven"
     assert rep["tests"]["voronoi_edge"]["level"] == "proven"
     assert rep["tests"]["voronoi_edge"]["proof"]["held"]
-    # Loops and silhouettes are still sampled: no certificate is claimed.
-    assert rep["tests"]["silhouette"]["level"] == "sampled"
-    assert not m.topology_certified
+    assert rep["tests"]["voronoi_loop"]["level"] == "proven"
+    assert rep["tests"]["silhouette"]["level"] == "proven"
+    assert m.topology_certified and rep["certified"]
 
 
 # Components that the seeding grid (64 cells across the ball) cannot see:
@@ -141,3 +141,54 @@ def test_sampled_mode_says_so():
     assert m.report["seeding"]["level"] == "sampled"
     assert m.report["tests"]["voronoi_edge"]["level"] == "sampled"
     assert "proof" not in m.report["tests"]["voronoi_edge"]
+
+
+def _cells(text, points, radius=2.0):
+    """A core holding ``points``, and what the proven cell tests need."""
+    from rdmesh import core
+    from rdmesh.topology.proven_cells import CellGeometry
+    from scipy.spatial import cKDTree
+
+    s = _surface(text, radius)
+    rdt = core.RestrictedDelaunay(s.centre, s.radius)
+    rdt.insert(np.asarray(points, float))
+    v = rdt.samples()
+    normals = s.grad(v) / np.linalg.norm(s.grad(v), axis=1)[:, None]
+    return s, rdt, v, normals, CellGeometry.of(rdt, v, s.centre, s.radius), cKDTree(v)
+
+
+def _octahedron(r=1.0):
+    return r * np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1.0]])
+
+
+def test_proven_silhouette_fails_on_hemispheres_and_holds_on_smaller_cells():
+    from rdmesh.topology.proven_cells import proven_silhouette_test
+
+    sphere = "x**2 + y**2 + z**2 - 1"
+    # Two samples: each cell holds a closed hemisphere, whose rim is a silhouette.
+    s, rdt, v, n, geo, tree = _cells(sphere, [[0, 0, 1], [0, 0, -1]])
+    out = proven_silhouette_test(s, rdt, v, n, geo, tree, [0, 1])
+    assert out.count == 2
+    # Every refinement point is on the sphere, near the rim.
+    assert np.allclose(np.linalg.norm(out.centres, axis=1), 1, atol=1e-8)
+    assert np.all(np.abs(out.centres[:, 2]) < 0.05)
+    # Six samples (an octahedron): every cell's patch has normals within 55
+    # degrees of its sample's; the proof holds.
+    s, rdt, v, n, geo, tree = _cells(sphere, _octahedron())
+    out = proven_silhouette_test(s, rdt, v, n, geo, tree, np.arange(6))
+    assert out.count == 0
+
+
+def test_proven_loop_test_finds_a_loop_inside_a_facet():
+    from rdmesh.topology.proven_cells import proven_loop_test
+
+    # Samples off a small sphere, one above and one below: the bisector plane
+    # z = 0 cuts the sphere in a closed circle inside the facet.
+    small = "x**2 + y**2 + z**2 - 0.09"
+    s, rdt, v, n, geo, tree = _cells(small, [[0, 0, 0.5], [0, 0, -0.5]])
+    out = proven_loop_test(s, v, geo, tree)
+    assert out.count >= 1
+    assert np.allclose(np.linalg.norm(out.centres, axis=1), 0.3, atol=1e-8)
+    # Samples on the sphere, an octahedron: each facet meets it in one arc.
+    s, rdt, v, n, geo, tree = _cells(small, _octahedron(0.3))
+    assert proven_loop_test(s, v, geo, tree).count == 0

@@ -93,3 +93,6 @@ REGION_LINK = 0.05
 #: Pieces of a Voronoi edge are not halved below this, times R: an unsettled
 #: piece there (a tangency, a singular point) leaves the edge unresolved.
 PROOF_FLOOR = 1e-9
+#: Boxes of the proven loop and silhouette tests are not halved below this
+#: side, times R: an unsettled box there is a violation.
+PROOF_BOX_FLOOR = 1e-5

@@ -34,6 +34,8 @@ from .stages import FacetStage, Stage, TestStage
 log = logging.getLogger("rdmesh")
 
 TOPOLOGIES = ("manifold", "manifold-with-boundary", "non-manifold")
+#: The tests proven by interval arithmetic in certify mode, in repair order.
+PROVEN_TESTS = ("proven_voronoi_edge", "proven_voronoi_loop", "proven_silhouette")
 
 
 @dataclass
@@ -130,7 +132,7 @@ def topological_ball(
         *tests(TESTS[1:]),
     ]
     if certify:
-        geometric.append(TestStage("proven_voronoi_edge", "proven_voronoi_edge"))
+        geometric += [TestStage(k, k) for k in PROVEN_TESTS]
     floor = TB_FLOOR * R
     return Plan(
         seeds=seeds,

@@ -25,8 +25,8 @@ bounding sphere meets some kept box, hence some box edge, and every root on
 every box edge is isolated with proof (:mod:`rdmesh.sampling.isolate`) and
 then located by root finding. When no box is unresolved and every edge is
 settled, the returned points include one on every component: proven, up to
-the root finder's tolerance. The bounding sphere itself (``f > 0`` on and
-outside it) is the user's promise, checked on samples elsewhere.
+the root finder's tolerance. Boxes that reach the bounding sphere are split
+until ``f > 0`` is proven on them, so the surface provably stays inside it.
 """
 
 from __future__ import annotations
@@ -116,6 +116,10 @@ def discover(surface: ImplicitSurface, expr: Expression, rng: np.random.Generato
         glo, ghi, undef = enc.glo[keep], enc.ghi[keep], enc.undefined[keep]
         good, more = _good(expr, lo, size, glo, ghi, undef)
         evaluations += more
+        # A box reaching the sphere may hold surface that crosses it: split it
+        # until f > 0 is proven there (or it is unresolved).
+        far = np.maximum(np.abs(lo - c0), np.abs(lo + size - c0))
+        good &= row_norms(far) < R
         mono = (((glo > 0) | (ghi < 0)) & ~undef[:, None])[good]
         leaves.append((lo[good], size, mono))
         bad = lo[~good]

@@ -136,7 +136,8 @@ def _dot(glo: np.ndarray, ghi: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, n
     Components with ``d == 0`` add nothing; non-finite bounds elsewhere give
     an unbounded result.
     """
-    p1, p2 = glo * d, ghi * d
+    with np.errstate(invalid="ignore"):  # inf * 0 where d == 0: replaced below
+        p1, p2 = glo * d, ghi * d
     zero = d == 0
     lo = np.where(zero, 0.0, np.minimum(p1, p2))
     hi = np.where(zero, 0.0, np.maximum(p1, p2))

@@ -21,6 +21,7 @@ from ..surfaces.oracle import ImplicitSurface
 from .complex import ComplexStatus, complex_status
 from .loops import LoopMemo
 from .proven import proven_edge_test
+from .proven_cells import CellGeometry, proven_loop_test, proven_silhouette_test
 from .tests import (
     SILHOUETTE_ANGLE,
     Violations,
@@ -88,6 +89,12 @@ class Snapshot:
         """Unit normals at the samples."""
         return unit_normals(self.surface, self.vertices)
 
+    @cached_property
+    def cells(self) -> CellGeometry:
+        """Voronoi facets' boxes and the cells' neighbours (the proven tests)."""
+        s = self.surface
+        return CellGeometry.of(self.rdt, self.vertices, s.centre, s.radius)
+
     def test(
         self,
         kind: str,
@@ -127,6 +134,13 @@ class Snapshot:
             )  # fmt: skip
         if kind == "proven_voronoi_edge":
             return proven_edge_test(self.surface, self.rdt, self.vertices, tri, centres)
+        if kind == "proven_voronoi_loop":
+            return proven_loop_test(self.surface, self.vertices, self.cells, self.tree)
+        if kind == "proven_silhouette":
+            return proven_silhouette_test(
+                self.surface, self.rdt, self.vertices, self.normals, self.cells, self.tree,
+                np.unique(tri),
+            )  # fmt: skip
         if kind == "isolated":
             return isolated_test(self.surface, self.vertices, tri, self.tree)
         if kind == "silhouette":

@@ -1,0 +1,243 @@
+"""The loop and silhouette tests with proof, by interval arithmetic (issue 13, 5).
+
+Both tests cover a region with boxes, drop the boxes that provably do not
+matter, and prove a sign condition on the gradient in the rest; boxes that
+settle neither way are halved along their longest side, down to a floor side,
+and are violations there.
+
+``voronoi_loop`` (T2)
+    Voronoi facet ``F_pq`` (in the bisector plane of ``p`` and ``q``): a box
+    matters when it meets the plane, lies inside ``V_p`` (not wholly beyond the
+    bisector with another neighbour of ``p``) and ``0`` is in the bounds of
+    ``f``. It is settled when ``0`` is not in ``grad f(X) . e``, for one
+    in-plane direction ``e`` chosen per facet. Then every point of
+    ``F ∩ Σ`` has ``df/de > 0`` (or every one ``< 0``), so each line along
+    ``e`` meets ``F ∩ Σ`` at most once (two zeros in a row cannot both be
+    upward): no closed loop and no second arc through any line, so ``F ∩ Σ``
+    is a set of arcs that are graphs across ``e``, each ending on ``∂F``: one
+    arc for the two boundary crossings of a restricted edge, none for zero.
+    T2 holds, given T1 (the boundary counts).
+``silhouette`` (T3)
+    Voronoi cell ``V_p`` of a sample ``p`` with normal ``n_p``: a box matters
+    when it lies inside ``V_p`` and ``0`` is in the bounds of ``f``; it is
+    settled when ``0`` is not in ``grad f(X) . n_p``. Then no point of
+    ``W_p = V_p ∩ Σ`` is a silhouette point along ``n_p``; with the disk test
+    (the boundary of ``W_p`` is one cycle) the silhouette lemma makes ``W_p``
+    a disk, and a closed component inside ``V_p`` is ruled out too (it would
+    have a silhouette point along every direction).
+
+Boxes start as the bounding box of each Voronoi facet's polygon, or of each
+cell's vertices, cut to the cube around the bounding sphere. A
+violation's refinement point is the centre of an unsettled box moved onto the
+surface by Newton's method, with the empty ball reaching its nearest sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._newton import damped_step
+from .._tol import ON_SURFACE, PROOF_BOX_FLOOR, TINY
+from .._vectors import row_norms
+from ..sampling.isolate import _dot
+from ..surfaces.expressions import Expression
+from ..surfaces.oracle import ImplicitSurface
+from .tests import Violations
+
+#: Boxes kept at one level at most, over all facets or cells.
+MAX_BOXES = 1 << 21
+#: Newton steps that move an unsettled box's centre onto the surface.
+NEWTON_STEPS = 12
+
+
+@dataclass
+class CellGeometry:
+    """Delaunay edges between samples, their Voronoi facets' bounding boxes,
+    and each sample's neighbours as CSR (the half-spaces of its cell)."""
+
+    edges: np.ndarray  # (m, 2) sorted sample pairs
+    lo: np.ndarray  # (m, 3) bounding box of each facet polygon, cut to the cube
+    hi: np.ndarray
+    offsets: np.ndarray  # (n + 1,) CSR of each sample's neighbours
+    neighbour: np.ndarray  # (2 m,)
+
+    @classmethod
+    def of(cls, rdt, vertices: np.ndarray, centre: np.ndarray, radius: float) -> CellGeometry:
+        edges = rdt.delaunay_edges()
+        off, pts, _, _ = rdt.voronoi_facets(edges)
+        counts = np.diff(off)
+        lo = np.minimum.reduceat(pts, off[:-1], axis=0) if len(edges) else np.zeros((0, 3))
+        hi = np.maximum.reduceat(pts, off[:-1], axis=0) if len(edges) else np.zeros((0, 3))
+        lo = np.where(counts[:, None] > 0, lo, np.inf)
+        hi = np.where(counts[:, None] > 0, hi, -np.inf)
+        # Circumcentres are rounded: widen a little.
+        lo = np.clip(lo - 1e-9 * radius, centre - radius, centre + radius)
+        hi = np.clip(hi + 1e-9 * radius, centre - radius, centre + radius)
+        n = len(vertices)
+        src = np.concatenate([edges[:, 0], edges[:, 1]])
+        dst = np.concatenate([edges[:, 1], edges[:, 0]])
+        order = np.argsort(src, kind="stable")
+        offsets = np.r_[0, np.cumsum(np.bincount(src, minlength=n))]
+        return cls(edges, lo, hi, offsets, dst[order])
+
+
+def proven_loop_test(surface: ImplicitSurface, vertices, geometry: CellGeometry, tree) -> Violations:
+    """T2 loops on every Voronoi facet, with proof (module docstring)."""
+    e = geometry.edges
+    p, q = vertices[e[:, 0]], vertices[e[:, 1]]
+    normal = q - p
+    normal /= np.maximum(row_norms(normal), TINY)[:, None]
+    mid = 0.5 * (p + q)
+
+    def matters(lo, hi, k):
+        a, b = _span(lo, hi, normal[k])
+        c = np.einsum("ij,ij->i", mid[k], normal[k])
+        on_plane = (a <= c) & (b >= c)
+        return on_plane & ~_outside_cell(lo, hi, e[k, 0], vertices, geometry, skip=e[k, 1])
+
+    live = np.flatnonzero(np.all(geometry.lo <= geometry.hi, axis=1))
+    direction = np.zeros((len(e), 3))
+    direction[live] = _in_plane_direction(
+        surface, geometry.lo[live], geometry.hi[live], mid[live], normal[live]
+    )
+
+    def settled(glo, ghi, k):
+        dlo, dhi = _dot(glo, ghi, direction[k])
+        return (dlo > 0) | (dhi < 0)
+
+    return _prove(
+        "proven_voronoi_loop", surface, vertices, tree,
+        geometry.lo[live], geometry.hi[live], live, matters, settled,
+    )  # fmt: skip
+
+
+def proven_silhouette_test(
+    surface: ImplicitSurface, rdt, vertices, normals, geometry: CellGeometry, tree, cells
+) -> Violations:
+    """The silhouette test on the Voronoi cells of ``cells`` (sample ids), with proof."""
+    cells = np.asarray(cells, np.int64)
+    # Each cell's bounding box (its vertices are circumcentres, rounded: widen
+    # a little), cut to the cube around the bounding sphere.
+    box = rdt.voronoi_cell_boxes(cells)
+    c, R = surface.centre, surface.radius
+    pad = 1e-9 * R
+    lo = np.clip(box[:, 0] - pad, c - R, c + R)
+    hi = np.clip(box[:, 1] + pad, c - R, c + R)
+
+    def matters(blo, bhi, k):
+        return ~_outside_cell(blo, bhi, k, vertices, geometry)
+
+    def settled(glo, ghi, k):
+        dlo, dhi = _dot(glo, ghi, normals[k])
+        return (dlo > 0) | (dhi < 0)
+
+    return _prove(
+        "proven_silhouette", surface, vertices, tree, lo, hi, cells, matters, settled,
+    )  # fmt: skip
+
+
+def _prove(kind, surface, vertices, tree, lo, hi, owner, matters, settled) -> Violations:
+    """Subdivide the boxes until each is irrelevant or settled; the rest are violations."""
+    expr = surface.f
+    if not isinstance(expr, Expression):
+        raise TypeError(f"{kind} needs an expression surface")
+    floor = PROOF_BOX_FLOOR * surface.radius
+    bad_lo, bad_hi, bad_owner = [], [], []
+    while len(lo):
+        keep = matters(lo, hi, owner)
+        lo, hi, owner = lo[keep], hi[keep], owner[keep]
+        if not len(lo):
+            break
+        enc = expr.interval_gradient(lo, hi, mean_value=True)
+        open_ = (enc.lo <= 0) & (enc.hi >= 0)
+        open_ &= enc.undefined | ~settled(enc.glo, enc.ghi, owner)
+        lo, hi, owner = lo[open_], hi[open_], owner[open_]
+        side = hi - lo
+        small = side.max(axis=1) <= floor
+        if small.any() or 2 * len(lo) > MAX_BOXES:
+            stop = small if 2 * len(lo) <= MAX_BOXES else np.ones(len(lo), bool)
+            bad_lo.append(lo[stop])
+            bad_hi.append(hi[stop])
+            bad_owner.append(owner[stop])
+            lo, hi, owner = lo[~stop], hi[~stop], owner[~stop]
+            side = side[~stop]
+        # Halve along the longest side.
+        axis = np.argmax(side, axis=1)
+        rows = np.arange(len(lo))
+        cut = lo[rows, axis] + 0.5 * side[rows, axis]
+        hi1 = hi.copy()
+        hi1[rows, axis] = cut
+        lo2 = lo.copy()
+        lo2[rows, axis] = cut
+        lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi1, hi])
+        owner = np.concatenate([owner, owner])
+    if not bad_lo:
+        return Violations(kind, 0, np.zeros((0, 3)), np.zeros(0))
+    blo, bhi, bown = (np.concatenate(x) for x in (bad_lo, bad_hi, bad_owner))
+    # One violation per facet or cell: its first unsettled box.
+    _, first = np.unique(bown, return_index=True)
+    start = 0.5 * (blo[first] + bhi[first])
+    x, ok = _onto_surface(surface, start, (bhi[first] - blo[first]).max(axis=1))
+    dist, _ = tree.query(x[ok])
+    return Violations(kind, len(first), x[ok], dist, start[~ok])
+
+
+def _in_plane_direction(surface, lo, hi, mid, normal) -> np.ndarray:
+    """One direction per facet along which ``f`` should be monotone on the
+    facet's part of the surface: the in-plane gradient at a surface point
+    near the facet (its box centre, put on the plane, then moved onto the
+    surface), or any in-plane unit vector where that vanishes."""
+    x = 0.5 * (lo + hi)
+    x -= np.einsum("ij,ij->i", x - mid, normal)[:, None] * normal
+    x, _ = _onto_surface(surface, x, (hi - lo).max(axis=1))
+    g = surface.grad(x)
+    g -= np.einsum("ij,ij->i", g, normal)[:, None] * normal
+    fallback = np.cross(normal, np.where(np.abs(normal[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]]))
+    norm = row_norms(g)
+    g = np.where(norm[:, None] > 0, g, fallback)
+    return g / np.maximum(row_norms(g), TINY)[:, None]
+
+
+def _onto_surface(surface: ImplicitSurface, x: np.ndarray, cap: np.ndarray):
+    """Newton from ``x`` onto ``f = 0``, each step at most ``cap``; (points, converged)."""
+    R = surface.radius
+    for _ in range(NEWTON_STEPS):
+        fx = surface(x)
+        g = surface.grad(x)
+        gg = np.maximum(np.einsum("ij,ij->i", g, g), TINY)
+        x, _ = damped_step(x, -(fx / gg)[:, None] * g, cap)
+    gn = row_norms(surface.grad(x))
+    ok = (np.abs(surface(x)) <= ON_SURFACE * R * gn) & (gn > 0)
+    ok &= row_norms(x - surface.centre) < R
+    return x, ok
+
+
+def _span(lo, hi, w) -> tuple[np.ndarray, np.ndarray]:
+    """Least and greatest ``x . w`` over the boxes."""
+    a = np.where(w > 0, lo, hi)
+    b = np.where(w > 0, hi, lo)
+    return np.einsum("ij,ij->i", a, w), np.einsum("ij,ij->i", b, w)
+
+
+def _outside_cell(lo, hi, p_ids, vertices, geometry: CellGeometry, skip=None) -> np.ndarray:
+    """Boxes wholly beyond the bisector of ``p`` and one of its neighbours
+    (other than ``skip``): outside the Voronoi cell of ``p``."""
+    off = geometry.offsets
+    start, count = off[p_ids], off[p_ids + 1] - off[p_ids]
+    box = np.repeat(np.arange(len(lo)), count)
+    pos = np.arange(len(box)) - np.repeat(np.cumsum(count) - count, count)
+    nb = geometry.neighbour[np.repeat(start, count) + pos]
+    p = vertices[np.repeat(p_ids, count)]
+    qv = vertices[nb]
+    w = qv - p
+    a, _ = _span(lo[box], hi[box], w)
+    c = np.einsum("ij,ij->i", 0.5 * (p + qv), w)
+    # A small relative margin: rounding must not drop a box that touches the cell.
+    beyond = a > c + 1e-12 * (np.abs(c) + row_norms(w) * row_norms(p))
+    if skip is not None:
+        beyond &= nb != np.repeat(skip, count)
+    out = np.zeros(len(lo), bool)
+    np.logical_or.at(out, box, beyond)
+    return out
