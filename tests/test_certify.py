@@ -135,9 +135,7 @@ def test_certify_needs_an_expression():
 
 
 def test_sampled_mode_says_so():
-    m = rdmesh.mesh_surface(
-        _surface("x**2+y**2+z**2-1"), method="topological-ball", certify=False
-    )
+    m = rdmesh.mesh_surface(_surface("x**2+y**2+z**2-1"), method="topological-ball", certify=False)
     assert m.report["seeding"]["level"] == "sampled"
     assert m.report["tests"]["voronoi_edge"]["level"] == "sampled"
     assert "proof" not in m.report["tests"]["voronoi_edge"]

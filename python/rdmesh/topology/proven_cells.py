@@ -83,7 +83,9 @@ class CellGeometry:
         return cls(edges, lo, hi, offsets, dst[order])
 
 
-def proven_loop_test(surface: ImplicitSurface, vertices, geometry: CellGeometry, tree) -> Violations:
+def proven_loop_test(
+    surface: ImplicitSurface, vertices, geometry: CellGeometry, tree
+) -> Violations:
     """T2 loops on every Voronoi facet, with proof (module docstring)."""
     e = geometry.edges
     p, q = vertices[e[:, 0]], vertices[e[:, 1]]
@@ -194,7 +196,8 @@ def _in_plane_direction(surface, lo, hi, mid, normal) -> np.ndarray:
     x, _ = _onto_surface(surface, x, (hi - lo).max(axis=1))
     g = surface.grad(x)
     g -= np.einsum("ij,ij->i", g, normal)[:, None] * normal
-    fallback = np.cross(normal, np.where(np.abs(normal[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]]))
+    axis = np.where(np.abs(normal[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    fallback = np.cross(normal, axis)
     norm = row_norms(g)
     g = np.where(norm[:, None] > 0, g, fallback)
     return g / np.maximum(row_norms(g), TINY)[:, None]
