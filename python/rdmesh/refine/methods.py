@@ -84,7 +84,7 @@ def boissonnat_oudot(
         ]
     stages.append(TestStage("isolated", "isolated"))
     if certify:
-        stages.append(TestStage("proven_voronoi_edge", "proven_voronoi_edge"))
+        stages.append(TestStage(PROVEN_TESTS[0], PROVEN_TESTS[0], only_if_clean=True))
     return Plan(
         seeds=scan.seeds,
         phases=[stages],
@@ -132,7 +132,7 @@ def topological_ball(
         *tests(TESTS[1:]),
     ]
     if certify:
-        geometric += [TestStage(k, k) for k in PROVEN_TESTS]
+        geometric += [TestStage(k, k, only_if_clean=True) for k in PROVEN_TESTS]
     floor = TB_FLOOR * R
     return Plan(
         seeds=seeds,

@@ -32,6 +32,8 @@ class Phases:
         unresolved = []
         while True:
             for stage in self.phases[self.current]:
+                if getattr(stage, "only_if_clean", False) and unresolved:
+                    continue
                 cand = stage.candidates(snap)
                 if len(cand.stuck):
                     unresolved.append(cand.stuck)

@@ -97,6 +97,9 @@ class TestStage:
     allow_boundary: bool = False
     probes: Probes | None = None
     angle: float = 90.0
+    #: Asked only when no earlier stage left anything unresolved (a proof
+    #: cannot certify a run that is incomplete anyway, and costs a full pass).
+    only_if_clean: bool = False
 
     def candidates(self, snap: Snapshot) -> Candidates:
         v = snap.test(self.test, allow_boundary=self.allow_boundary, probes=self.probes,

@@ -124,7 +124,7 @@ def topology_report(
             }
     tests = {k: tests[k] for k in TESTS}
     link = REGION_LINK * surface.radius
-    if proof and not quick:
+    if proof and not quick and complete and len(unresolved) == 0:
         _prove_edges(tests, snap.test("proven_voronoi_edge"), link)
         for kind in ("voronoi_loop", "silhouette"):
             _prove_test(tests[kind], snap.test("proven_" + kind), link)
