@@ -22,7 +22,9 @@ def _surface(text, radius=2.0):
     ("method", "radius_bound"), [("topological-ball", None), ("boissonnat-oudot", 0.2)]
 )
 def test_issue_example_is_certified_with_both_components(method, radius_bound):
-    m = rdmesh.mesh_surface(_surface(SMALL), method=method, radius_bound=radius_bound)
+    m = rdmesh.mesh_surface(
+        _surface(SMALL), method=method, radius_bound=radius_bound, certify=True
+    )
     topo = m.topology()
     assert topo["components"] == 2 and topo["euler"] == [2, 2]
     assert m.is_closed_manifold()
@@ -84,7 +86,7 @@ def test_discovery_leaves_singular_and_undefined_regions_unresolved():
     found = discover(s, s.f, np.random.default_rng(0))
     assert not found.proven
     assert np.linalg.norm(found.unresolved - [1, 0, 0], axis=1).min() < 0.01
-    m = rdmesh.mesh_surface(_surface(text, 3.5), method="topological-ball")
+    m = rdmesh.mesh_surface(_surface(text, 3.5), radius_bound=0.3, certify=True)
     assert m.report["seeding"]["level"] == "sampled"
     assert m.report["seeding"]["unresolved_regions"]
     assert not m.topology_certified

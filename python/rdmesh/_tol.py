@@ -94,5 +94,7 @@ REGION_LINK = 0.05
 #: piece there (a tangency, a singular point) leaves the edge unresolved.
 PROOF_FLOOR = 1e-9
 #: Boxes of the proven loop and silhouette tests are not halved below this
-#: side, times R: an unsettled box there is a violation.
+#: side, times R, nor below PROOF_BOX_RELATIVE times the facet's or cell's
+#: first box: an unsettled box there is a violation (refined, never proven).
 PROOF_BOX_FLOOR = 1e-5
+PROOF_BOX_RELATIVE = 2.0**-14

@@ -89,9 +89,14 @@ def mesh_surface(
         with proof (an interval subdivision, Plantinga-Vegter/Snyder), and
         it proves the crossings of every Voronoi edge, refining until each
         restricted facet's dual edge crosses once, transversally, and every
-        other edge not at all. Default (None): on for expression surfaces,
-        off otherwise; True for another surface raises ValueError. The report
-        gives each test's level (``proven`` or ``sampled``).
+        other edge not at all; and it proves the loop and silhouette tests
+        on every Voronoi facet and cell, refining where a proof fails. When
+        every step is proven, ``topology_certified`` is True. Default (None):
+        on for expression surfaces with the topological-ball method, off
+        otherwise (with Boissonnat-Oudot the proofs cost several times the
+        run); True for a surface that is not an expression raises
+        ValueError. The report gives each test's level (``proven`` or
+        ``sampled``).
 
     Returns
     -------
@@ -152,7 +157,7 @@ def mesh_surface(
     workers = integer("workers", workers, 1, 64)
     expression = isinstance(surface.f, Expression)
     if certify is None:
-        certify = expression
+        certify = expression and method == "topological-ball"
     elif certify not in (True, False):
         raise ValueError(f"certify must be True, False or None, got {certify!r}")
     elif certify and not expression:

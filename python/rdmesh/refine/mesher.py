@@ -109,6 +109,7 @@ class Mesher:
         """Mesh the surface; raises BudgetExceeded or Interrupted with the partial mesh."""
         t0 = time.perf_counter()
         evals0 = self.surface.evaluations
+        ivals0 = getattr(self.surface.f, "interval_evaluations", 0)
         rng = np.random.default_rng(self.seed)
         with self.timer("seeding"):
             plan = METHODS[self.method](
@@ -134,7 +135,7 @@ class Mesher:
                 self.rdt.restart_round()
                 self._snap = None
                 self.pipeline.update(self.vertices)
-            mesh = _result(self, plan, t0, evals0, stop)
+            mesh = _result(self, plan, t0, evals0, ivals0, stop)
         finally:
             self.pipeline.close()
         if stop:
@@ -226,7 +227,9 @@ def _stopped(stop: str, mesh: SurfaceMesh, interrupted: bool, stalled: bool) -> 
     return BudgetExceeded(f"refinement stopped early: {stop}", mesh=mesh, reason=stop)
 
 
-def _result(m: Mesher, plan: Plan, t0: float, evals0: int, stop: str | None) -> SurfaceMesh:
+def _result(
+    m: Mesher, plan: Plan, t0: float, evals0: int, ivals0: int, stop: str | None
+) -> SurfaceMesh:
     """The mesh of the final samples, with its topology report and statistics."""
     snap = m.snapshot()
     tri, centres, _ = snap.facets(0)
@@ -269,6 +272,7 @@ def _result(m: Mesher, plan: Plan, t0: float, evals0: int, stop: str | None) -> 
         seconds=time.perf_counter() - t0,
         rounds=m.rounds,
         evaluations=m.surface.evaluations - evals0,
+        interval_evaluations=getattr(m.surface.f, "interval_evaluations", 0) - ivals0,
         samples=len(m.vertices),
         inserted=dict(m.samples.inserted),
         facets_evaluated=m.pipeline.evaluated,

@@ -84,7 +84,7 @@ def boissonnat_oudot(
         ]
     stages.append(TestStage("isolated", "isolated"))
     if certify:
-        stages.append(TestStage(PROVEN_TESTS[0], PROVEN_TESTS[0], only_if_clean=True))
+        stages += [TestStage(k, k, only_if_clean=True) for k in PROVEN_TESTS]
     return Plan(
         seeds=scan.seeds,
         phases=[stages],

@@ -35,7 +35,7 @@ from __future__ import annotations
 import ast
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -519,6 +519,13 @@ class Expression:
     text: str
     variables: frozenset
     _root: _Node
+    # Boxes bounded so far (a mutable cell: the dataclass is frozen).
+    _boxes: list = field(default_factory=lambda: [0], repr=False)
+
+    @property
+    def interval_evaluations(self) -> int:
+        """Boxes (or segments, or points) bounded by interval arithmetic so far."""
+        return self._boxes[0]
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """Values at ``(N, 3)`` points, ``(N,)`` float64 (NaN/inf where undefined)."""
@@ -558,7 +565,9 @@ class Expression:
         """
         from .intervals import interval
 
-        return interval(self, lo, hi, mean_value=mean_value)
+        out = interval(self, lo, hi, mean_value=mean_value)
+        self._boxes[0] += len(out.lo)
+        return out
 
     def interval_gradient(
         self, lo: np.ndarray, hi: np.ndarray, *, mean_value: bool = False
@@ -571,7 +580,9 @@ class Expression:
         """
         from .intervals import interval_gradient
 
-        return interval_gradient(self, lo, hi, mean_value=mean_value)
+        out = interval_gradient(self, lo, hi, mean_value=mean_value)
+        self._boxes[0] += len(out.lo)
+        return out
 
     def __repr__(self) -> str:
         return f"Expression({self.text!r})"

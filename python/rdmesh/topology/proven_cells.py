@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._newton import damped_step
-from .._tol import ON_SURFACE, PROOF_BOX_FLOOR, TINY
+from .._tol import ON_SURFACE, PROOF_BOX_FLOOR, PROOF_BOX_RELATIVE, TINY
 from .._vectors import row_norms
 from ..sampling.isolate import _dot
 from ..surfaces.expressions import Expression
@@ -93,11 +93,13 @@ def proven_loop_test(
     normal /= np.maximum(row_norms(normal), TINY)[:, None]
     mid = 0.5 * (p + q)
 
-    def matters(lo, hi, k):
+    def on_plane(lo, hi, k):
         a, b = _span(lo, hi, normal[k])
         c = np.einsum("ij,ij->i", mid[k], normal[k])
-        on_plane = (a <= c) & (b >= c)
-        return on_plane & ~_outside_cell(lo, hi, e[k, 0], vertices, geometry, skip=e[k, 1])
+        return (a <= c) & (b >= c)
+
+    def matters(lo, hi, k):
+        return ~_outside_cell(lo, hi, e[k, 0], vertices, geometry, skip=e[k, 1])
 
     live = np.flatnonzero(np.all(geometry.lo <= geometry.hi, axis=1))
     direction = np.zeros((len(e), 3))
@@ -111,7 +113,7 @@ def proven_loop_test(
 
     return _prove(
         "proven_voronoi_loop", surface, vertices, tree,
-        geometry.lo[live], geometry.hi[live], live, matters, settled,
+        geometry.lo[live], geometry.hi[live], live, matters, settled, on_plane,
     )  # fmt: skip
 
 
@@ -140,15 +142,29 @@ def proven_silhouette_test(
     )  # fmt: skip
 
 
-def _prove(kind, surface, vertices, tree, lo, hi, owner, matters, settled) -> Violations:
-    """Subdivide the boxes until each is irrelevant or settled; the rest are violations."""
+def _prove(
+    kind, surface, vertices, tree, lo, hi, owner, matters, settled, cheap=None
+) -> Violations:
+    """Subdivide the boxes until each is irrelevant or settled; the rest are violations.
+
+    ``cheap`` (optional) and ``matters`` say which boxes can matter; ``cheap``
+    is applied before the interval evaluation, ``matters`` (costlier) only to
+    the boxes that are neither empty nor settled.
+    """
     expr = surface.f
     if not isinstance(expr, Expression):
         raise TypeError(f"{kind} needs an expression surface")
-    floor = PROOF_BOX_FLOOR * surface.radius
+    # Per owner: not below a fraction of its first box, nor below the absolute floor.
+    size0 = np.zeros(int(owner.max()) + 1 if len(owner) else 0)
+    size0[owner] = (hi - lo).max(axis=1)
+    floor = np.maximum(PROOF_BOX_FLOOR * surface.radius, PROOF_BOX_RELATIVE * size0)
+    done = np.zeros(len(size0), bool)
     bad_lo, bad_hi, bad_owner = [], [], []
     while len(lo):
-        keep = matters(lo, hi, owner)
+        # One unsettled box makes an owner a violation: drop the rest of it.
+        keep = ~done[owner]
+        if cheap is not None:
+            keep &= cheap(lo, hi, owner)
         lo, hi, owner = lo[keep], hi[keep], owner[keep]
         if not len(lo):
             break
@@ -156,13 +172,17 @@ def _prove(kind, surface, vertices, tree, lo, hi, owner, matters, settled) -> Vi
         open_ = (enc.lo <= 0) & (enc.hi >= 0)
         open_ &= enc.undefined | ~settled(enc.glo, enc.ghi, owner)
         lo, hi, owner = lo[open_], hi[open_], owner[open_]
+        keep = matters(lo, hi, owner)
+        lo, hi, owner = lo[keep], hi[keep], owner[keep]
         side = hi - lo
-        small = side.max(axis=1) <= floor
+        small = side.max(axis=1) <= floor[owner]
         if small.any() or 2 * len(lo) > MAX_BOXES:
             stop = small if 2 * len(lo) <= MAX_BOXES else np.ones(len(lo), bool)
             bad_lo.append(lo[stop])
             bad_hi.append(hi[stop])
             bad_owner.append(owner[stop])
+            done[owner[stop]] = True
+            stop |= done[owner]
             lo, hi, owner = lo[~stop], hi[~stop], owner[~stop]
             side = side[~stop]
         # Halve along the longest side.
@@ -241,6 +261,10 @@ def _outside_cell(lo, hi, p_ids, vertices, geometry: CellGeometry, skip=None) ->
     beyond = a > c + 1e-12 * (np.abs(c) + row_norms(w) * row_norms(p))
     if skip is not None:
         beyond &= nb != np.repeat(skip, count)
+    # Neighbour lists are contiguous per box: a segmented any().
     out = np.zeros(len(lo), bool)
-    np.logical_or.at(out, box, beyond)
+    has = count > 0
+    if has.any():
+        first = (np.cumsum(count) - count)[has]
+        out[has] = np.add.reduceat(beyond.astype(np.int32), first) > 0
     return out
