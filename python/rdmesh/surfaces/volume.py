@@ -265,9 +265,9 @@ class VolumeSurface(ImplicitSurface):
     smooth surface (for "linear", which is not smooth, they do not hold).
     Where the isosurface meets a face of the box, the closed surface has a
     crease (a sharp edge), where those guarantees do not hold: the mesh is
-    closed but the crease is cut by triangles, not followed by edges. With
-    the mirror boundary the interpolant's normal derivative vanishes on the
-    faces, so the isosurface meets the faces at right angles.
+    closed but the crease is cut by triangles, not followed by edges. The
+    cubic interpolant's mirror boundary makes its normal derivative vanish on
+    the faces, so its isosurface meets the faces at right angles.
 
     Values and exact gradients come from a compiled tensor-product sampler
     (``rdmesh.core.VolumeSampler``, 64 coefficients per point for cubic, the
