@@ -181,12 +181,15 @@ def _gradient_scale(volume: np.ndarray, isovalue: float, spacing: np.ndarray) ->
     Dividing ``isovalue - v`` by it makes ``f`` about a signed distance near
     the surface, so it is commensurate with the distance to the box.
     """
+    above = volume > isovalue
     slopes = []
     for axis in range(3):
-        lo = np.take(volume, np.arange(volume.shape[axis] - 1), axis=axis) - isovalue
-        hi = np.take(volume, np.arange(1, volume.shape[axis]), axis=axis) - isovalue
-        cross = (lo * hi <= 0) & (lo != hi)
-        slopes.append(np.abs(hi - lo)[cross] / spacing[axis])
+        first = [slice(None)] * 3
+        second = [slice(None)] * 3
+        first[axis], second[axis] = slice(None, -1), slice(1, None)
+        a, b = tuple(first), tuple(second)
+        cross = above[a] != above[b]  # one end above the isovalue, the other not
+        slopes.append(np.abs(volume[b][cross] - volume[a][cross]) / spacing[axis])
     s = np.concatenate(slopes)
     return float(np.median(s)) if len(s) else 1.0
 
