@@ -218,8 +218,11 @@ class VolumeSurface(ImplicitSurface):
     inside : {"greater", "less"}, default "greater"
         Which side is inside: "greater" (values above the isovalue, such as
         bone in CT) gives ``f = (isovalue - v) / value_scale``; "less" the
-        opposite sign. Both give the same surface; only the orientation of the
-        triangles (outward normals) differs.
+        opposite sign. ``(volume, inside="greater")`` and ``(-volume,
+        isovalue=-isovalue, inside="less")`` are the same surface. On one
+        volume, "greater" and "less" give the same isosurface with opposite
+        orientations only where it does not reach the box: each is closed by
+        the box on its own side.
     interpolation : {"cubic", "linear"}, default "cubic"
         "cubic": the cubic B-spline interpolating the samples (prefiltered
         once with ``scipy.ndimage.spline_filter``, mirror boundary), twice
@@ -265,7 +268,8 @@ class VolumeSurface(ImplicitSurface):
     box, so on and outside the bounding sphere (the sphere about the box,
     enlarged by 10%). Inside the box, away from its faces, the mesh is a mesh
     of the interpolant's isosurface, and rdmesh's guarantees apply to that
-    smooth surface (for "linear", which is not smooth, they do not hold).
+    smooth surface (for "linear", which is not smooth, the topology
+    guarantees do not hold; the angle and size bounds still do).
     Where the isosurface meets a face of the box, the closed surface has a
     crease (a sharp edge), where those guarantees do not hold: the mesh is
     closed but the crease is cut by triangles, not followed by edges. The
