@@ -276,6 +276,12 @@ class VolumeSurface(ImplicitSurface):
     cubic interpolant's mirror boundary makes its normal derivative vanish on
     the faces, so its isosurface meets the faces at right angles.
 
+    As for any surface, components narrower than about 1.7 cells of
+    :func:`rdmesh.mesh_surface`'s seeding grid (``seed_resolution`` cells
+    across the bounding ball, 64 by default: a cell is about ``n / 34``
+    samples for a cube of ``n`` samples a side) may be missed; raise
+    ``seed_resolution`` for volumes with small separate parts.
+
     Values and exact gradients come from a compiled tensor-product sampler
     (``rdmesh.core.VolumeSampler``, 64 coefficients per point for cubic, the
     GIL released). It measured faster than ``scipy.ndimage.map_coordinates``
