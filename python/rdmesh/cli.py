@@ -317,7 +317,9 @@ def _add_volume_options(p: argparse.ArgumentParser) -> None:
     from .surfaces.volume import INSIDE, INTERPOLATIONS
 
     g = p.add_argument_group(
-        "volumes", "SURFACE may be a 3-D numpy array saved as .npy: its isosurface is meshed"
+        "volumes",
+        "SURFACE may be a 3-D numpy array saved as .npy: its isosurface is meshed, closed by "
+        "the faces of the volume's box where it reaches them",
     )
     g.add_argument(
         "--isovalue", type=_number, metavar="V", help="level to mesh (default mid-range)"
