@@ -100,6 +100,8 @@ void silent_handler(const char*, const char*, const char*, int, const char*) {}
 
 }  // namespace
 
+void register_volume_sampler(py::module_& m);  // cpp/volume_sampler.cpp
+
 PYBIND11_MODULE(_rdt, m) {
   m.doc() = "Restricted Delaunay triangulation core of rdmesh (CGAL 3D Delaunay).";
   m.attr("CGAL_VERSION") = CGAL_STR(CGAL_VERSION);
@@ -126,6 +128,7 @@ PYBIND11_MODULE(_rdt, m) {
   m.attr("BAD") = static_cast<int>(rdmesh::BAD);
   m.attr("OUTWARD") = static_cast<int>(rdmesh::OUTWARD);
   m.attr("TOPO") = static_cast<int>(rdmesh::TOPO);
+  register_volume_sampler(m);
 
   m.def(
       "_fail_allocation_for_testing",

@@ -24,6 +24,7 @@ from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria
 from .surfaces.expressions import ExpressionError
 from .surfaces.oracle import ImplicitSurface
+from .surfaces.volume import VolumeSurface
 
 logging.getLogger("rdmesh").addHandler(logging.NullHandler())
 
@@ -43,6 +44,7 @@ __all__ = [
     "RdmeshError",
     "RefinementStalled",
     "SurfaceMesh",
+    "VolumeSurface",
     "mesh_surface",
     "surfaces",
 ]

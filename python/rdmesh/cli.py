@@ -231,6 +231,7 @@ def _parser() -> argparse.ArgumentParser:
         help="stop after about this long; partial mesh written, exit status 1",
     )
     mesh.add_argument("--png", metavar="PNG", help="also write a shaded picture")
+    _add_volume_options(mesh)
     _add_output_options(mesh)
 
     demo = sub.add_parser(
@@ -280,8 +281,10 @@ def _check_writable(path: str, picture: bool = False) -> None:
 
 
 def _surface(args) -> ImplicitSurface:
-    """The built-in surface or the expression named by SURFACE."""
+    """The built-in surface, the expression or the volume (.npy) named by SURFACE."""
     text = args.surface.strip()
+    if _is_volume(args):
+        return _volume_surface(args)
     sphere = args.sphere
     if args.bound is not None:
         sphere = ((0.0, 0.0, 0.0), args.bound)
@@ -303,6 +306,77 @@ def _surface(args) -> ImplicitSurface:
             "--sphere cx,cy,cz,R"
         )
     return ImplicitSurface.from_expression(text, bounding_sphere=sphere)
+
+
+# -- volumes: ``rdmesh mesh volume.npy --isovalue V [--spacing SX SY SZ] ...`` --------
+
+_VOLUME_OPTIONS = ("isovalue", "spacing", "origin", "inside", "interpolation")
+
+
+def _add_volume_options(p: argparse.ArgumentParser) -> None:
+    from .surfaces.volume import INSIDE, INTERPOLATIONS
+
+    g = p.add_argument_group(
+        "volumes",
+        "SURFACE may be a 3-D numpy array saved as .npy: its isosurface is meshed, closed by "
+        "the faces of the volume's box where it reaches them",
+    )
+    g.add_argument(
+        "--isovalue", type=_number, metavar="V", help="level to mesh (default mid-range)"
+    )
+    g.add_argument(
+        "--spacing",
+        type=_positive_float,
+        nargs=3,
+        metavar=("SX", "SY", "SZ"),
+        help="sample spacing per array axis (default 1 1 1)",
+    )
+    g.add_argument(
+        "--origin",
+        type=_number,
+        nargs=3,
+        metavar=("OX", "OY", "OZ"),
+        help="position of sample [0, 0, 0] (default 0 0 0)",
+    )
+    g.add_argument(
+        "--inside",
+        choices=INSIDE,
+        help="values greater (default; e.g. bone in CT) or less than the isovalue are inside",
+    )
+    g.add_argument(
+        "--interpolation", choices=INTERPOLATIONS, help="cubic B-spline (default) or trilinear"
+    )
+
+
+def _is_volume(args) -> bool:
+    """True if SURFACE names a .npy file; volume options need one."""
+    if args.surface.strip().lower().endswith(".npy"):
+        return True
+    given = [o for o in _VOLUME_OPTIONS if getattr(args, o, None) is not None]
+    if given:
+        raise _CliError(f"--{given[0]} applies only to volumes: give SURFACE as a .npy file")
+    return False
+
+
+def _volume_surface(args) -> ImplicitSurface:
+    """The isosurface of the volume in the .npy file SURFACE (closed by its box)."""
+    import numpy as np
+
+    from .surfaces.volume import VolumeSurface
+
+    path = args.surface.strip()
+    if args.bound is not None or args.sphere is not None:
+        raise _CliError("--bound and --sphere do not apply to a volume: its box bounds it")
+    try:
+        volume = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise _CliError(f"no such volume file: {path!r}") from None
+    except ValueError as exc:
+        raise _CliError(f"cannot read the volume {path!r}: {exc}") from None
+    if not isinstance(volume, np.ndarray):
+        raise _CliError(f"{path!r} holds several arrays; save one 3-D array with numpy.save")
+    opts = {k: getattr(args, k) for k in _VOLUME_OPTIONS if getattr(args, k) is not None}
+    return VolumeSurface(volume, name=os.path.basename(path), **opts)
 
 
 def _write(mesh: SurfaceMesh, args, title: str) -> str:

@@ -4,7 +4,8 @@ A thin wrapper over the extension ``_rdt`` (see ``_rdt.pyi`` for its
 signatures): the triangulation with per-facet restricted flags and surface
 centres, batch insertion, the facets whose dual changed in each round with
 their dual segments sampled, Voronoi facets, and the greedy independent set
-of balls that makes a batch a valid sequential run.
+of balls that makes a batch a valid sequential run; and ``VolumeSampler``,
+the B-spline sampler of :class:`rdmesh.VolumeSurface`.
 
 Facet flag bits (set by Python, kept by the core per facet):
 ``RESTRICTED`` (the dual meets the surface), ``BAD`` (fails a criterion),
@@ -19,6 +20,7 @@ from ._rdt import (
     RESTRICTED,
     TOPO,
     RestrictedDelaunay,
+    VolumeSampler,
     sample_segments,
     select_independent,
     trim_heap,
@@ -31,6 +33,7 @@ __all__ = [
     "RESTRICTED",
     "TOPO",
     "RestrictedDelaunay",
+    "VolumeSampler",
     "sample_segments",
     "select_independent",
     "trim_heap",

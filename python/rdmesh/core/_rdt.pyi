@@ -82,3 +82,22 @@ class RestrictedDelaunay:
     @property
     def number_of_cells(self) -> int: ...
     def check(self) -> None: ...
+
+class VolumeSampler:
+    def __init__(
+        self,
+        coefficients: npt.ArrayLike,
+        degree: int,
+        origin: npt.ArrayLike,
+        spacing: npt.ArrayLike,
+    ) -> None: ...
+    def sample(
+        self, points: npt.ArrayLike, gradient: bool = False
+    ) -> tuple[
+        npt.NDArray[np.float64],  # (n,) values
+        npt.NDArray[np.float64] | None,  # (n, 3) gradients, if asked
+    ]: ...
+    @property
+    def degree(self) -> int: ...
+    @property
+    def shape(self) -> tuple[int, int, int]: ...

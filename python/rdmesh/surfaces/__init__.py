@@ -2,7 +2,8 @@
 
 ``rdmesh.surfaces.torus()``, ``rdmesh.surfaces.get("tanglecube")`` and
 ``rdmesh.surfaces.SURFACES`` give the built-in surfaces, each with an exact
-gradient; :class:`ImplicitSurface` wraps any vectorised function.
+gradient; :class:`ImplicitSurface` wraps any vectorised function and
+:class:`VolumeSurface` the isosurface of a sampled 3-D volume.
 """
 
 from .builtin import (
@@ -19,11 +20,13 @@ from .builtin import (
     two_spheres,
 )
 from .oracle import ImplicitSurface
+from .volume import VolumeSurface
 
 __all__ = [
     "SURFACES",
     "ImplicitSurface",
     "SurfaceInfo",
+    "VolumeSurface",
     "blob_line",
     "double_torus",
     "ellipsoid",
