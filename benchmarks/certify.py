@@ -37,48 +37,64 @@ HARD = [
     (
         "sphere + 1% sphere",
         "min(x**2+y**2+z**2-1, (x-1.4)**2+(y-0.2)**2+z**2-0.02**2)",
-        2.0, 2, [2, 2],
+        2.0,
+        2,
+        [2, 2],
     ),
     (
         "sphere + 0.5% sphere",
         "min(x**2+y**2+z**2-1, (x-1.3)**2+(y-0.1)**2+(z+0.2)**2-0.01**2)",
-        2.0, 2, [2, 2],
+        2.0,
+        2,
+        [2, 2],
     ),
     (
         "sphere + two 0.2% specks",
         "min(min(x**2+y**2+z**2-1, (x-1.5)**2+y**2+z**2-0.004**2), "
         "(x+0.6)**2+(y-1.2)**2+(z-0.5)**2-0.004**2)",
-        2.0, 3, [2, 2, 2],
+        2.0,
+        3,
+        [2, 2, 2],
     ),
     (
         "two spheres, gap 0.2%",
         "min(sqrt(x**2+y**2+z**2)-1, sqrt((x-2.0064)**2+y**2+z**2)-1)",
-        3.2, 2, [2, 2],
+        3.2,
+        2,
+        [2, 2],
     ),
     (
         "two spheres, gap 0.2% (product)",
         "((x-1.0032)**2+y**2+z**2-1)*((x+1.0032)**2+y**2+z**2-1)",
-        3.2, 2, [2, 2],
+        3.2,
+        2,
+        [2, 2],
     ),
     (
         "torus, tube 2% thick",
         "(x**2+y**2+z**2+1-0.03**2)**2-4*(x**2+y**2)",
-        1.5, 1, [0],
+        1.5,
+        1,
+        [0],
     ),
     (
         "torus + 1% sphere in its hole",
         "min((x**2+y**2+z**2+1-0.3**2)**2-4*(x**2+y**2), x**2+y**2+(z-0.1)**2-0.015**2)",
-        1.6, 2, [0, 2],
+        1.6,
+        2,
+        [0, 2],
     ),
 ]
 
 
-def _surface(text: str, radius: float) -> rdmesh.ImplicitSurface:
-    return rdmesh.ImplicitSurface.from_expression(text, ((0.0, 0.0, 0.0), radius))
+def _surface(text: str, sphere) -> rdmesh.ImplicitSurface:
+    if not isinstance(sphere, tuple):
+        sphere = ((0.0, 0.0, 0.0), sphere)
+    return rdmesh.ImplicitSurface.from_expression(text, sphere)
 
 
-def _run(text, radius, *, certify, **kw) -> dict:
-    s = _surface(text, radius)
+def _run(text, sphere, *, certify, **kw) -> dict:
+    s = _surface(text, sphere)
     t = time.perf_counter()
     try:
         m = rdmesh.mesh_surface(s, certify=certify, **kw)
@@ -105,13 +121,15 @@ def cost(repeats: int) -> list[dict]:
     rows = []
     for name, text in BUILTIN_EXPRESSIONS.items():
         info = SURFACES[name]
-        radius = float(info.make().radius)
+        made = info.make()
+        radius = float(made.radius)
+        sphere = (tuple(float(c) for c in made.centre), radius)
         for bound in (None, radius / 20):
             runs = {False: [], True: []}
             for r in range(repeats):
-                for certify in ((False, True) if r % 2 == 0 else (True, False)):
+                for certify in (False, True) if r % 2 == 0 else (True, False):
                     runs[certify].append(
-                        _run(text, radius, certify=certify, method="topological-ball",
+                        _run(text, sphere, certify=certify, method="topological-ball",
                              radius_bound=bound)
                     )  # fmt: skip
             row = {"surface": name, "radius_bound": bound}

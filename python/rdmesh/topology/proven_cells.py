@@ -84,9 +84,14 @@ class CellGeometry:
 
 
 def proven_loop_test(
-    surface: ImplicitSurface, vertices, geometry: CellGeometry, tree
+    surface: ImplicitSurface, vertices, geometry: CellGeometry, tree, tri=None, centres=None
 ) -> Violations:
-    """T2 loops on every Voronoi facet, with proof (module docstring)."""
+    """T2 loops on every Voronoi facet, with proof (module docstring).
+
+    ``tri`` and ``centres`` (the restricted facets and their surface centres)
+    give the facets of complex edges their direction: across the chord
+    between the arc's two ends.
+    """
     e = geometry.edges
     p, q = vertices[e[:, 0]], vertices[e[:, 1]]
     normal = q - p
@@ -106,6 +111,11 @@ def proven_loop_test(
     direction[live] = _in_plane_direction(
         surface, geometry.lo[live], geometry.hi[live], mid[live], normal[live]
     )
+    if tri is not None and len(tri):
+        rows, chord = _chords(e, tri, centres)
+        across = np.cross(normal[rows], chord)
+        ok = row_norms(across) > TINY
+        direction[rows[ok]] = across[ok] / row_norms(across[ok])[:, None]
 
     def settled(glo, ghi, k):
         dlo, dhi = _dot(glo, ghi, direction[k])
@@ -204,6 +214,35 @@ def _prove(
     x, ok = _onto_surface(surface, start, (bhi[first] - blo[first]).max(axis=1))
     dist, _ = tree.query(x[ok])
     return Violations(kind, len(first), x[ok], dist, start[~ok])
+
+
+def _chords(edges: np.ndarray, tri: np.ndarray, centres: np.ndarray):
+    """For Delaunay edges in exactly two restricted facets: the edge's row in
+    ``edges`` and the chord between the two facets' surface centres (the ends
+    of the surface's arc in the edge's Voronoi facet)."""
+    t = np.sort(tri, axis=1)
+    pairs = np.concatenate([t[:, [0, 1]], t[:, [0, 2]], t[:, [1, 2]]])
+    owner = np.tile(np.arange(len(t)), 3)
+    key, inv, cnt = np.unique(pairs, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    order = np.argsort(inv, kind="stable")
+    first = np.r_[0, np.cumsum(cnt)[:-1]]
+    two = np.flatnonzero(cnt == 2)
+    a = centres[owner[order[first[two]]]]
+    b = centres[owner[order[first[two] + 1]]]
+    rows = _rows_of(edges, key[two])
+    ok = rows >= 0
+    return rows[ok], (b - a)[ok]
+
+
+def _rows_of(table: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Index in ``table`` of each of ``rows`` (sorted int pairs), -1 where absent."""
+    both = np.concatenate([table, rows]).astype(np.int64)
+    _, inv = np.unique(both, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    pos = np.full(inv.max() + 1 if len(inv) else 0, -1, np.int64)
+    pos[inv[: len(table)]] = np.arange(len(table))
+    return pos[inv[len(table) :]]
 
 
 def _in_plane_direction(surface, lo, hi, mid, normal) -> np.ndarray:

@@ -135,7 +135,9 @@ class Snapshot:
         if kind == "proven_voronoi_edge":
             return proven_edge_test(self.surface, self.rdt, self.vertices, tri, centres)
         if kind == "proven_voronoi_loop":
-            return proven_loop_test(self.surface, self.vertices, self.cells, self.tree)
+            return proven_loop_test(
+                self.surface, self.vertices, self.cells, self.tree, tri, centres
+            )
         if kind == "proven_silhouette":
             return proven_silhouette_test(
                 self.surface, self.rdt, self.vertices, self.normals, self.cells, self.tree,
