@@ -4,7 +4,8 @@ A thin wrapper over the extension ``_rdt`` (see ``_rdt.pyi`` for its
 signatures): the triangulation with per-facet restricted flags and surface
 centres, batch insertion, the facets whose dual changed in each round with
 their dual segments sampled, Voronoi facets, and the greedy independent set
-of balls that makes a batch a valid sequential run.
+of balls that makes a batch a valid sequential run; and ``MeshDistance``,
+the distance, side and winding-number queries behind ``MeshSurface``.
 
 Facet flag bits (set by Python, kept by the core per facet):
 ``RESTRICTED`` (the dual meets the surface), ``BAD`` (fails a criterion),
@@ -18,6 +19,7 @@ from ._rdt import (
     OUTWARD,
     RESTRICTED,
     TOPO,
+    MeshDistance,
     RestrictedDelaunay,
     sample_segments,
     select_independent,
@@ -27,6 +29,7 @@ from ._rdt import (
 __all__ = [
     "BAD",
     "CGAL_VERSION",
+    "MeshDistance",
     "OUTWARD",
     "RESTRICTED",
     "TOPO",

@@ -2,7 +2,8 @@
 
 ``rdmesh.surfaces.torus()``, ``rdmesh.surfaces.get("tanglecube")`` and
 ``rdmesh.surfaces.SURFACES`` give the built-in surfaces, each with an exact
-gradient; :class:`ImplicitSurface` wraps any vectorised function.
+gradient; :class:`ImplicitSurface` wraps any vectorised function, :class:`MeshSurface` a
+triangle mesh (its signed distance).
 """
 
 from .builtin import (
@@ -18,11 +19,13 @@ from .builtin import (
     torus,
     two_spheres,
 )
+from .mesh import MeshSurface
 from .oracle import ImplicitSurface
 
 __all__ = [
     "SURFACES",
     "ImplicitSurface",
+    "MeshSurface",
     "SurfaceInfo",
     "blob_line",
     "double_torus",
