@@ -397,3 +397,13 @@ def test_cli_bad_input_is_one_line(tmp_path, capsys, write, message):
     err = capsys.readouterr().err
     assert status == 2
     assert message in err and len(err.strip().splitlines()) == 1
+
+
+def test_folds_are_counted_and_logged(caplog):
+    flat = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.3, 0.3, 0.001]])
+    faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    with caplog.at_level("WARNING", logger="rdmesh"):
+        ms = MeshSurface((flat, faces))
+    assert ms.folds == 3  # the base against each side, at almost 180 degrees
+    assert "3 folds" in caplog.text
+    assert MeshSurface(marching_cubes("torus", n=24)).folds == 0

@@ -43,6 +43,9 @@ AMBIGUITY_SAMPLES = 20_000
 #: query, which is slowest there (near the medial axis many faces are almost
 #: equally far). The zero set and f within the cap are unchanged.
 DISTANCE_CAP = 0.1
+#: Two faces sharing an edge whose normals differ by more than this (degrees)
+#: form a fold: a razor-thin wedge with no feature size (logged as a warning).
+FOLD_ANGLE = 150.0
 #: Points evaluated per call of the C++ core (bounds the temporary arrays).
 _CHUNK = 1 << 18
 
@@ -112,6 +115,19 @@ def _area_vectors(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return 0.5 * np.cross(b - a, c - a)
 
 
+def _count_folds(f: np.ndarray, normals: np.ndarray) -> int:
+    """Edges of exactly two faces whose normals differ by more than FOLD_ANGLE."""
+    edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    face = np.tile(np.arange(len(f)), 3)
+    _, inverse, counts = np.unique(edges, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.reshape(-1)
+    pair = counts[inverse] == 2
+    order = np.argsort(inverse[pair], kind="stable")
+    faces = face[pair][order].reshape(-1, 2)
+    cos = np.einsum("ij,ij->i", normals[faces[:, 0]], normals[faces[:, 1]])
+    return int(np.count_nonzero(cos < np.cos(np.radians(FOLD_ANGLE))))
+
+
 def _is_closed_oriented(f: np.ndarray) -> bool:
     """Every edge in exactly two faces, traversed once in each direction."""
     directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
@@ -142,6 +158,9 @@ class MeshSurface(ImplicitSurface):
         The cleaned input, oriented so that its signed volume is positive.
     sign_method : {"side", "winding"}
         How inside is told from outside (see Notes).
+    folds : int
+        Edges whose two faces' normals differ by more than 150 degrees
+        (razor-thin wedges; see Notes). Nonzero counts are logged as a warning.
 
     Raises
     ------
@@ -234,6 +253,15 @@ class MeshSurface(ImplicitSurface):
         # circumradius or half its longest edge, both <= longest edge / sqrt 3).
         self._vertex_gap = float(edges.max()) / np.sqrt(3.0)
         self._kdtree = cKDTree(v)
+        self.folds = _count_folds(f, self._normals)
+        if self.folds:
+            log.warning(
+                "MeshSurface: %d folds (neighbouring faces at more than %g degrees): "
+                "razor-thin wedges with no feature size; bounds fine enough to resolve "
+                "them end at the spacing floor (complete=False)",
+                self.folds,
+                FOLD_ANGLE,
+            )
         if self._core.has_side:
             self.sign_method = "side"
             self.ambiguous_share = 0.0
