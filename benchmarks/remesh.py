@@ -10,6 +10,8 @@ version of each. Remeshers:
 - ``pymeshlab``: MeshLab's isotropic explicit remeshing (10 iterations) with
   the target edge length set to the mean edge length of rdmesh's output and
   the surface distance check at rdmesh's distance bound, if pymeshlab imports;
+  once with its default feature angle (30 degrees: sharper edges are kept)
+  and once without feature edges (180 degrees);
 - ``pygalmesh``: ``pygalmesh.remesh_surface`` (CGAL Mesh_3 on the input as a
   polyhedral domain) with the same bounds, if pygalmesh imports.
 
@@ -162,7 +164,7 @@ def run_rdmesh(ms: MeshSurface, rb: float, db: float):
     return m.vertices, m.faces, time.perf_counter() - t
 
 
-def run_pymeshlab(v, f, edge: float, db: float):
+def run_pymeshlab(v, f, edge: float, db: float, feature_angle: float = 30.0):
     import pymeshlab
 
     mset = pymeshlab.MeshSet()
@@ -172,6 +174,7 @@ def run_pymeshlab(v, f, edge: float, db: float):
         iterations=10,
         targetlen=pymeshlab.PureValue(edge),
         maxsurfdist=pymeshlab.PureValue(db),
+        featuredeg=feature_angle,
     )
     seconds = time.perf_counter() - t
     m = mset.current_mesh()
@@ -260,6 +263,10 @@ def main(argv=None) -> int:
             if missing["pymeshlab"] is None:
                 pv, pf, sec = run_pymeshlab(ref.vertices, ref.faces, edge, db)
                 rows.append({**case, "mesher": "pymeshlab", **measure(pv, pf, ref, info, sec)})
+                # Without feature edges: the noise's creases are not kept.
+                pv, pf, sec = run_pymeshlab(ref.vertices, ref.faces, edge, db, 180.0)
+                row = measure(pv, pf, ref, info, sec)
+                rows.append({**case, "mesher": "pymeshlab, no features", **row})
             if missing["pygalmesh"] is None:
                 gv, gf, sec = run_pygalmesh(ref.vertices, ref.faces, edge, rb, db)
                 rows.append({**case, "mesher": "pygalmesh", **measure(gv, gf, ref, info, sec)})

@@ -57,6 +57,14 @@ struct WNode {
 
 constexpr std::int32_t kLeafSize = 8;
 
+// Queries at non-finite points would send CGAL's ray casting into endless
+// retries; refuse them up front.
+void check_finite(const double* p, std::size_t k) {
+  for (std::size_t i = 0; i < 3 * k; ++i)
+    if (!std::isfinite(p[i]))
+      throw std::invalid_argument("query point " + std::to_string(i / 3) + " is not finite");
+}
+
 }  // namespace
 
 struct MeshDistance::Impl {
@@ -239,6 +247,7 @@ MeshDistance::~MeshDistance() = default;
 void MeshDistance::query(const double* p, std::size_t k, double* dist, double* closest,
                          std::int64_t* face, std::int8_t* side) const {
   const Impl& s = *impl_;
+  check_finite(p, k);
   for (std::size_t i = 0; i < k; ++i) {
     const Point q(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
     const auto hit = s.tree.closest_point_and_primitive(q);
@@ -260,6 +269,7 @@ void MeshDistance::query(const double* p, std::size_t k, double* dist, double* c
 void MeshDistance::side(const double* p, std::size_t k, std::int8_t* side) const {
   const Impl& s = *impl_;
   if (!s.side) throw std::logic_error("this mesh has no side oracle: " + s.side_failure);
+  check_finite(p, k);
   for (std::size_t i = 0; i < k; ++i) {
     const CGAL::Bounded_side b = (*s.side)(Point(p[3 * i], p[3 * i + 1], p[3 * i + 2]));
     side[i] = b == CGAL::ON_UNBOUNDED_SIDE ? 1 : (b == CGAL::ON_BOUNDED_SIDE ? -1 : 0);
@@ -269,6 +279,7 @@ void MeshDistance::side(const double* p, std::size_t k, std::int8_t* side) const
 void MeshDistance::winding_number(const double* p, std::size_t k, double* w, double beta) const {
   if (!(beta > 1.0) || !std::isfinite(beta))
     throw std::invalid_argument("beta must be finite and greater than 1");
+  check_finite(p, k);
   for (std::size_t i = 0; i < k; ++i) w[i] = impl_->winding(&p[3 * i], beta);
 }
 

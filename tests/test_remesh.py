@@ -349,6 +349,16 @@ def test_bad_input_is_refused_with_a_clear_message(mesh, message):
     assert isinstance(info.value, ValueError)
 
 
+def test_non_finite_query_points_are_refused():
+    ms = MeshSurface(_tetra())
+    bad = np.array([[0.1, 0.1, 0.1], [np.nan, 0.0, 0.0]])
+    for query in (ms.signed_distance, ms.winding_number, ms.grad, ms.closest_points):
+        with pytest.raises(ValueError, match="query point 1 is not finite"):
+            query(bad)
+    with pytest.raises(rdmesh.OracleError, match="not finite"):
+        ms(bad)
+
+
 def test_accepts_a_trimesh_and_is_an_implicit_surface():
     ms = MeshSurface(trimesh.Trimesh(*_tetra(), process=False))
     assert isinstance(ms, rdmesh.ImplicitSurface)

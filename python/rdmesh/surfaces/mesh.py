@@ -115,6 +115,15 @@ def _area_vectors(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return 0.5 * np.cross(b - a, c - a)
 
 
+def _points(points: np.ndarray) -> np.ndarray:
+    """Query points as a C-contiguous (N, 3) float64 array, checked finite."""
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    bad = ~np.isfinite(pts).all(axis=1)
+    if bad.any():
+        raise ValueError(f"query point {int(np.argmax(bad))} is not finite")
+    return pts
+
+
 def _count_folds(f: np.ndarray, normals: np.ndarray) -> int:
     """Edges of exactly two faces whose normals differ by more than FOLD_ANGLE."""
     edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
@@ -318,7 +327,7 @@ class MeshSurface(ImplicitSurface):
         return np.clip(WINDING_SLOPE * (1.0 - 2.0 * w), -1.0, 1.0)
 
     def _signed_distance(self, points: np.ndarray) -> np.ndarray:
-        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        pts = _points(points)
         if len(pts) == 0:
             return np.zeros(0)
         # Farther than cap + gap from every vertex means farther than cap from the mesh.
@@ -341,7 +350,7 @@ class MeshSurface(ImplicitSurface):
         return self._winding_factor(pts)
 
     def _gradient(self, points: np.ndarray) -> np.ndarray:
-        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        pts = _points(points)
         if len(pts) == 0:
             return np.zeros((0, 3))
         dist, closest, face, s = self._query(pts)
@@ -372,7 +381,7 @@ class MeshSurface(ImplicitSurface):
         whose sign comes from the winding number, the distance times
         ``clip(4 (1 - 2w), -1, 1)`` (see the class notes).
         """
-        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        pts = _points(points)
         if len(pts) == 0:
             return np.zeros(0)
         dist, _, _, s = self._query(pts)
@@ -380,7 +389,7 @@ class MeshSurface(ImplicitSurface):
 
     def closest_points(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Closest points on the mesh ``(N, 3)`` and the faces they lie on ``(N,)``."""
-        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        pts = _points(points)
         if len(pts) == 0:
             return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
         _, closest, face, _ = self._query(pts)
@@ -388,5 +397,5 @@ class MeshSurface(ImplicitSurface):
 
     def winding_number(self, points: np.ndarray) -> np.ndarray:
         """Generalized winding number of the mesh at ``(N, 3)`` points: ``(N,)``."""
-        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        pts = _points(points)
         return self._core.winding_number(pts)
