@@ -167,6 +167,11 @@ class MeshSurface(ImplicitSurface):
         The cleaned input, oriented so that its signed volume is positive.
     sign_method : {"side", "winding"}
         How inside is told from outside (see Notes).
+    cap : float
+        ``f`` is clamped to ``[-cap, cap]`` (``0.1 R``; see Notes).
+    ambiguous_share : float
+        Share of the area next to which the winding number is far from a
+        whole number (0 for closed meshes).
     folds : int
         Edges whose two faces' normals differ by more than 150 degrees
         (razor-thin wedges; see Notes). Nonzero counts are logged as a warning.
