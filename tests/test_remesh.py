@@ -417,3 +417,36 @@ def test_folds_are_counted_and_logged(caplog):
     assert ms.folds == 3  # the base against each side, at almost 180 degrees
     assert "3 folds" in caplog.text
     assert MeshSurface(marching_cubes("torus", n=24)).folds == 0
+
+
+@pytest.mark.slow
+def test_folds_finer_than_the_bounds_end_incomplete_near_the_folds():
+    # Random noise flips marching cubes' slivers into folds (razor-thin wedges). With
+    # bounds fine enough to see them, the run must not claim success: it ends with
+    # complete=False (or at the vertex budget) and the unresolved points next to folds.
+    v, f = marching_cubes("sphere", n=24)
+    rng = np.random.default_rng(7)
+    v = v + rng.normal(scale=0.1 * mean_edge(v, f), size=v.shape)
+    ms = MeshSurface((v, f))
+    assert ms.folds > 0
+    rb = ms.radius / 40
+    try:
+        mesh = rdmesh.mesh_surface(
+            ms, radius_bound=rb, distance_bound=rb / 10, max_vertices=25_000
+        )
+    except rdmesh.BudgetExceeded as exc:  # refinement may creep along a fold instead
+        mesh = exc.mesh
+    assert not mesh.complete and len(mesh.unresolved) > 0
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    _, inv, counts = np.unique(edges, axis=0, return_inverse=True, return_counts=True)
+    order = np.argsort(inv.reshape(-1), kind="stable")
+    pairs = np.tile(np.arange(len(f)), 3)[order].reshape(-1, 2)
+    assert np.all(counts == 2)
+    fold = np.einsum("ij,ij->i", n[pairs[:, 0]], n[pairs[:, 1]]) < np.cos(np.radians(150))
+    mids = v[np.unique(edges, axis=0)[fold]].mean(axis=1)
+    from scipy.spatial import cKDTree
+
+    gap, _ = cKDTree(mids).query(mesh.unresolved)
+    assert np.median(gap) <= 4 * rb

@@ -308,6 +308,13 @@ def _add_remesh_parser(sub) -> None:
     )
     rm.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     rm.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=1,
+        metavar="N",
+        help="threads evaluating the distance at once (default 1)",
+    )
+    rm.add_argument(
         "--max-vertices",
         type=_positive_int,
         metavar="N",
@@ -347,6 +354,7 @@ def _remesh(args) -> int:
         seed=args.seed,
         max_vertices=args.max_vertices,
         time_limit=args.time_limit,
+        workers=args.workers,
     )
 
 

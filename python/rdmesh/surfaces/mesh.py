@@ -236,9 +236,11 @@ class MeshSurface(ImplicitSurface):
     cube's edges and corners are chamfered, by about the distance bound
     (measured: corners 1.5x, edges up to 1.1x). Razor-thin wedges (two faces
     folded onto each other, as when noise flips a sliver triangle) have no
-    feature size at all: if the bounds are fine enough to resolve them,
-    refinement stops at the spacing floor there and the mesh is returned
-    with ``complete=False`` and may not be closed.
+    feature size at all: if the bounds are fine enough to resolve them, the
+    facets whose dual crosses both sheets of a fold need refinement points
+    below the spacing floor, which are refused; the mesh is returned with
+    ``complete=False`` (or the vertex budget runs out there) and may not be
+    closed.
     """
 
     def __init__(self, mesh: Any, *, name: str = "mesh") -> None:
@@ -272,7 +274,7 @@ class MeshSurface(ImplicitSurface):
             log.warning(
                 "MeshSurface: %d folds (neighbouring faces at more than %g degrees): "
                 "razor-thin wedges with no feature size; bounds fine enough to resolve "
-                "them end at the spacing floor (complete=False)",
+                "them end at the spacing floor (complete=False) or the vertex budget",
                 self.folds,
                 FOLD_ANGLE,
             )
