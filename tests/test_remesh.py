@@ -163,6 +163,21 @@ def test_small_hole_is_closed_by_the_winding_number():
     assert mesh.min_angle >= 30 - 1e-9
 
 
+def test_half_sphere_becomes_a_closed_half_ball():
+    # On the half sphere's base disc the winding number is exactly 0.5 (the half
+    # sphere is seen under 2 pi), so the disc closes it.
+    ico = trimesh.creation.icosphere(subdivisions=3)
+    top = ico.faces[ico.vertices[ico.faces].mean(axis=1)[:, 2] > 0]
+    ms = MeshSurface((ico.vertices, top))
+    assert ms.sign_method == "winding" and 0 < ms.ambiguous_share < 0.2
+    rb = ms.radius / 20
+    mesh = rdmesh.mesh_surface(ms, radius_bound=rb)
+    assert closed_manifold_problems(mesh.faces, len(mesh.vertices)) == []
+    assert euler_per_component(mesh.faces, len(mesh.vertices)) == [2]
+    z = mesh.vertices[:, 2]
+    assert -rb < z.min() < rb and z.max() > 0.99
+
+
 def test_overlapping_parts_give_their_union():
     a = trimesh.creation.icosphere(subdivisions=3)
     b = a.copy()
