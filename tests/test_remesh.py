@@ -260,6 +260,18 @@ def test_sphere_mesh_inside_outside_and_orientation():
         assert np.array_equal(w[far] > 0.5, s[far] < 0)
 
 
+def test_gradient_on_the_mesh_points_out_even_for_a_part_oriented_inwards():
+    a = trimesh.creation.icosphere(subdivisions=2)
+    v = np.vstack([a.vertices, a.vertices + [3.0, 0, 0]])
+    f = np.vstack([a.faces, a.faces[:, ::-1] + len(a.vertices)])  # second part inward
+    ms = MeshSurface((v, f))
+    assert ms.sign_method == "side"
+    centre = np.where(v[:, :1] > 1.5, [3.0, 0, 0], [0.0, 0, 0])
+    g = ms.grad(v)  # on the mesh: the normals of the closest faces
+    assert np.all(np.einsum("ij,ij->i", g, v - centre) > 0)
+    assert np.all(ms(centre[[0, -1]] + 0.0) < 0)
+
+
 def test_gradient_matches_differences_outside_a_convex_mesh():
     # Outside a convex polyhedron the distance is continuously differentiable.
     ico = trimesh.creation.icosphere(subdivisions=2)

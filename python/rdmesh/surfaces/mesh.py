@@ -300,9 +300,20 @@ class MeshSurface(ImplicitSurface):
                     "w = 0.5",
                     100 * self.ambiguous_share,
                 )
+        self._orient_normals(v, f, norms)
         super().__init__(
             self._signed_distance, (centre, radius), gradient=self._gradient, name=name
         )
+
+    def _orient_normals(self, v: np.ndarray, f: np.ndarray, norms: np.ndarray) -> None:
+        """Flip the normals (used for the gradient on the mesh) of faces whose front is inside.
+
+        Components oriented against the rest, or faces flipped in an open mesh,
+        would otherwise give a gradient pointing inwards right on the surface.
+        """
+        idx = np.flatnonzero(norms > 0)
+        probe = v[f[idx]].mean(axis=1) + 1e-3 * np.sqrt(norms[idx])[:, None] * self._normals[idx]
+        self._normals[idx[self._sign(probe) < 0]] *= -1
 
     def _ambiguity(self, v: np.ndarray, f: np.ndarray, norms: np.ndarray) -> float:
         """Share of the area next to which the winding number is not near a whole number."""
