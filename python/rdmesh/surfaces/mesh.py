@@ -190,7 +190,8 @@ class MeshSurface(ImplicitSurface):
     ``AABB_tree`` (C++, GIL released, vectorised over the query points). The
     gradient is ``sign * (p - closest) / |p - closest|``, the exact gradient
     of the signed distance away from the medial axis; within ``1e-9 R`` of
-    the mesh, the normal of the closest face. ``f`` is the signed distance
+    the mesh, the normal of the closest face, turned to the outside (each
+    face's side is checked with the sign oracle). ``f`` is the signed distance
     clamped to ``+-cap`` (``cap = 0.1 R``): points that a k-d tree of the
     vertices shows to be farther than ``cap`` skip the exact query, which is
     slowest there (near the medial axis many faces are almost equally far).
