@@ -14,6 +14,7 @@ from ._errors import (
     EmptySurfaceError,
     InternalCheckError,
     Interrupted,
+    MeshInputError,
     OracleError,
     RdmeshError,
     RefinementStalled,
@@ -23,6 +24,7 @@ from .core import CGAL_VERSION
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria
 from .surfaces.expressions import ExpressionError
+from .surfaces.mesh import MeshSurface
 from .surfaces.oracle import ImplicitSurface
 from .surfaces.volume import VolumeSurface
 
@@ -40,6 +42,8 @@ __all__ = [
     "ImplicitSurface",
     "InternalCheckError",
     "Interrupted",
+    "MeshInputError",
+    "MeshSurface",
     "OracleError",
     "RdmeshError",
     "RefinementStalled",

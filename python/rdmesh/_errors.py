@@ -22,6 +22,12 @@ class BoundingSphereError(RdmeshError, ValueError):
     """The surface reaches the bounding sphere (or f <= 0 outside the surface)."""
 
 
+class MeshInputError(RdmeshError, ValueError):
+    """A triangle mesh given to :class:`rdmesh.MeshSurface` is not usable: not a
+    mesh (wrong shapes, empty, non-finite vertices, indices out of range, all
+    faces of zero area) or too open to tell inside from outside."""
+
+
 class CGALError(RdmeshError, RuntimeError):
     """CGAL reported a failure inside the C++ core."""
 

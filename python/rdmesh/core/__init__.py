@@ -4,8 +4,9 @@ A thin wrapper over the extension ``_rdt`` (see ``_rdt.pyi`` for its
 signatures): the triangulation with per-facet restricted flags and surface
 centres, batch insertion, the facets whose dual changed in each round with
 their dual segments sampled, Voronoi facets, and the greedy independent set
-of balls that makes a batch a valid sequential run; and ``VolumeSampler``,
-the B-spline sampler of :class:`rdmesh.VolumeSurface`.
+of balls that makes a batch a valid sequential run; ``VolumeSampler``, the
+B-spline sampler of :class:`rdmesh.VolumeSurface`; and ``MeshDistance``, the
+distance, side and winding-number queries behind ``MeshSurface``.
 
 Facet flag bits (set by Python, kept by the core per facet):
 ``RESTRICTED`` (the dual meets the surface), ``BAD`` (fails a criterion),
@@ -19,6 +20,7 @@ from ._rdt import (
     OUTWARD,
     RESTRICTED,
     TOPO,
+    MeshDistance,
     RestrictedDelaunay,
     VolumeSampler,
     sample_segments,
@@ -29,6 +31,7 @@ from ._rdt import (
 __all__ = [
     "BAD",
     "CGAL_VERSION",
+    "MeshDistance",
     "OUTWARD",
     "RESTRICTED",
     "TOPO",

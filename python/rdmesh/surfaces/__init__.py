@@ -2,8 +2,9 @@
 
 ``rdmesh.surfaces.torus()``, ``rdmesh.surfaces.get("tanglecube")`` and
 ``rdmesh.surfaces.SURFACES`` give the built-in surfaces, each with an exact
-gradient; :class:`ImplicitSurface` wraps any vectorised function and
-:class:`VolumeSurface` the isosurface of a sampled 3-D volume.
+gradient; :class:`ImplicitSurface` wraps any vectorised function,
+:class:`VolumeSurface` the isosurface of a sampled 3-D volume and
+:class:`MeshSurface` a triangle mesh (its signed distance).
 """
 
 from .builtin import (
@@ -19,12 +20,14 @@ from .builtin import (
     torus,
     two_spheres,
 )
+from .mesh import MeshSurface
 from .oracle import ImplicitSurface
 from .volume import VolumeSurface
 
 __all__ = [
     "SURFACES",
     "ImplicitSurface",
+    "MeshSurface",
     "SurfaceInfo",
     "VolumeSurface",
     "blob_line",
