@@ -32,7 +32,14 @@ from record import fmt_size, jsonable
 
 __all__ = ["CGAL_MESHERS", "MESHERS", "adapters", "child_main"]
 
-MESHERS = ("rdmesh", "cgal_surface_mesher", "cgal_mesh_3", "pygalmesh", "marching_cubes")
+MESHERS = (
+    "rdmesh",
+    "rdmesh_certified",
+    "cgal_surface_mesher",
+    "cgal_mesh_3",
+    "pygalmesh",
+    "marching_cubes",
+)
 CGAL_MESHERS = {"cgal_surface_mesher": "surface_mesher", "cgal_mesh_3": "mesh_3"}
 #: Marching cubes gives about this many vertices per (area / spacing^2): one
 #: per grid edge the surface crosses, 1.5 on average over normal directions.
@@ -76,6 +83,46 @@ def child_rdmesh(spec: dict) -> dict:
         "extra": {
             "rounds": m.stats.get("rounds"),
             "stats_seconds": m.stats.get("seconds"),
+            "phase_seconds": m.stats.get("phase_seconds"),
+            "complete": bool(m.complete),
+        },
+    }
+
+
+def child_rdmesh_certified(spec: dict) -> dict:
+    """rdmesh in certify mode: the surface as an expression, the topological-ball
+    method with the same criteria, every test proven by interval arithmetic."""
+    import numpy as np
+    import rdmesh
+    from rdmesh.surfaces.builtin import BUILTIN_EXPRESSIONS
+
+    made = rdmesh.surfaces.get(spec["surface"])
+    s = rdmesh.ImplicitSurface.from_expression(
+        BUILTIN_EXPRESSIONS[spec["surface"]], made.bounding_sphere
+    )
+    base = _maxrss_mb()
+    t0 = time.perf_counter()
+    m = rdmesh.mesh_surface(
+        s,
+        angle_bound=spec["angle"],
+        radius_bound=spec["radius"],
+        distance_bound=spec["distance"],
+        seed=spec["seed"],
+        method="topological-ball",
+        certify=True,
+    )
+    seconds = time.perf_counter() - t0
+    save_mesh(spec.get("out"), m.vertices, m.faces)
+    return {
+        "seconds": seconds,
+        "vertices": int(len(np.unique(m.faces))),
+        "faces": int(len(m.faces)),
+        "evaluations": int(m.stats.get("evaluations", 0)),
+        "baseline_rss_mb": base,
+        "extra": {
+            "rounds": m.stats.get("rounds"),
+            "interval_evaluations": m.stats.get("interval_evaluations"),
+            "certified": bool(m.topology_certified),
             "phase_seconds": m.stats.get("phase_seconds"),
             "complete": bool(m.complete),
         },
@@ -155,6 +202,7 @@ def child_marching_cubes(spec: dict) -> dict:
 
 CHILDREN: dict[str, Callable[[dict], dict]] = {
     "rdmesh": child_rdmesh,
+    "rdmesh_certified": child_rdmesh_certified,
     "pygalmesh": child_pygalmesh,
     "marching_cubes": child_marching_cubes,
 }
@@ -228,6 +276,16 @@ class PythonMesher(Mesher):
                 f"exit {res['returncode']}: {last_line(res['stderr']) or 'no message'}"
             )
         return json.loads(last_line(res["stdout"]))
+
+
+class Certified(PythonMesher):
+    """rdmesh in certify mode, up to ``--certified-max-size``."""
+
+    def skip(self, size: int, args: argparse.Namespace) -> str | None:
+        limit = getattr(args, "certified_max_size", None)
+        if limit is not None and size > limit:
+            return f"above --certified-max-size {fmt_size(limit)}"
+        return None
 
 
 class Pygalmesh(PythonMesher):
@@ -354,7 +412,12 @@ def adapters(
     ``cgal_build_seconds`` and the pygalmesh version.
     """
     unavailable = record["unavailable"]
-    kinds = {"rdmesh": PythonMesher, "pygalmesh": Pygalmesh, "marching_cubes": MarchingCubes}
+    kinds = {
+        "rdmesh": PythonMesher,
+        "rdmesh_certified": Certified,
+        "pygalmesh": Pygalmesh,
+        "marching_cubes": MarchingCubes,
+    }
     out: dict[str, Mesher] = {m: kinds[m](m) for m in names if m in kinds}
     if any(m in CGAL_MESHERS for m in names):
         exe, why = _build_cgal(record, log)

@@ -32,6 +32,7 @@ __all__ = ["COLORS", "render_all"]
 #: One colour and marker per mesher, the same in every plot.
 COLORS = {
     "rdmesh": ("tab:blue", "o"),
+    "rdmesh_certified": ("tab:cyan", "D"),
     "cgal_surface_mesher": ("tab:orange", "s"),
     "cgal_mesh_3": ("tab:green", "^"),
     "pygalmesh": ("tab:red", "D"),

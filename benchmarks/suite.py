@@ -129,6 +129,11 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "--pygalmesh-max-size", type=_size, help="largest size run with pygalmesh (default 1e5)"
     )
     p.add_argument(
+        "--certified-max-size",
+        type=_size,
+        help="largest size run with rdmesh_certified (certify mode; default 1e5)",
+    )
+    p.add_argument(
         "--pygalmesh-repeats",
         type=int,
         default=1,
@@ -167,6 +172,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         args.timeout = 60.0 if q else 3600.0
     if args.pygalmesh_max_size is None:
         args.pygalmesh_max_size = min(args.sizes) if q else 100_000
+    if args.certified_max_size is None:
+        args.certified_max_size = min(args.sizes) if q else 100_000
     if args.reference_samples is None:
         args.reference_samples = 50_000 if q else 1_000_000
     if args.reference_samples < 1000:
