@@ -154,7 +154,7 @@ def hard() -> list[dict]:
     for name, text, radius, comps, euler in HARD:
         for method, bound in (("topological-ball", None), ("boissonnat-oudot", radius / 20)):
             r = _run(text, radius, certify=True, method=method, radius_bound=bound,
-                     time_limit=300.0)  # fmt: skip
+                     time_limit=900.0)  # fmt: skip
             r.update(case=name, method=method, radius_bound=bound)
             r["correct"] = r["components"] == comps and r["euler"] == sorted(euler)
             r["false_certificate"] = r["certified"] and not r["correct"]

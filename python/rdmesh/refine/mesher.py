@@ -26,6 +26,7 @@ from ..sampling.grid import check_sphere_near
 from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
+from ..topology.proven_cells import ProofMemo
 from ..topology.regions import describe_regions, regions
 from .check import check_restricted
 from .criteria import FacetCriteria
@@ -97,6 +98,7 @@ class Mesher:
         self.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
         self.samples = Samples(self.rdt)
         self.memo = LoopMemo()
+        self.proofs = ProofMemo()
         self.pipeline = FacetPipeline(self.rdt, surface, criteria, workers, self.timer)
         self.rounds = 0
         self.unresolved: list[np.ndarray] = []
@@ -214,7 +216,7 @@ class Mesher:
 
     def snapshot(self) -> Snapshot:
         if self._snap is None:
-            self._snap = Snapshot(self.surface, self.rdt, self.vertices, self.memo)
+            self._snap = Snapshot(self.surface, self.rdt, self.vertices, self.memo, self.proofs)
         return self._snap
 
 

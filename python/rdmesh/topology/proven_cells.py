@@ -34,7 +34,7 @@ surface by Newton's method, with the empty ball reaching its nearest sample.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -50,6 +50,37 @@ from .tests import Violations
 MAX_BOXES = 1 << 21
 #: Newton steps that move an unsettled box's centre onto the surface.
 NEWTON_STEPS = 12
+
+
+@dataclass
+class ProofMemo:
+    """Voronoi facets and cells proven clean at an earlier snapshot, kept across rounds.
+
+    A Voronoi facet or cell changes only when a sample is inserted in the star
+    of its Delaunay edge or sample (the core's ``delaunay_edges`` of the new
+    samples list exactly those edges), so one proven clean and not touched
+    since stays proven: it is not tested again (the surface is fixed).
+    """
+
+    samples: int = 0  # samples at the last proof
+    clean_edges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    clean_cells: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    _dirty: tuple | None = None
+
+    def touched(self, rdt, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
+        """Keys of the Delaunay edges, and the samples, whose Voronoi facet or
+        cell changed since the last proof (computed once per snapshot size)."""
+        if self._dirty is None or self._dirty[0] != n_samples:
+            new = np.arange(self.samples, n_samples, dtype=np.int64)
+            edges = rdt.delaunay_edges(new) if len(new) else np.zeros((0, 2), np.int64)
+            cells = np.union1d(np.unique(edges), new)
+            self._dirty = (n_samples, np.sort(_edge_keys(edges)), cells)
+        return self._dirty[1], self._dirty[2]
+
+
+def _edge_keys(edges: np.ndarray) -> np.ndarray:
+    e = edges.astype(np.int64)
+    return (e[:, 0] << 32) | e[:, 1]
 
 
 @dataclass
@@ -84,7 +115,14 @@ class CellGeometry:
 
 
 def proven_loop_test(
-    surface: ImplicitSurface, vertices, geometry: CellGeometry, tree, tri=None, centres=None
+    surface: ImplicitSurface,
+    vertices,
+    geometry: CellGeometry,
+    tree,
+    tri=None,
+    centres=None,
+    memo: ProofMemo | None = None,
+    rdt=None,
 ) -> Violations:
     """T2 loops on every Voronoi facet, with proof (module docstring).
 
@@ -121,17 +159,38 @@ def proven_loop_test(
         dlo, dhi = _dot(glo, ghi, direction[k])
         return (dlo > 0) | (dhi < 0)
 
-    return _prove(
+    keys = _edge_keys(e)
+    if memo is not None:
+        dirty, _ = memo.touched(rdt, len(vertices))
+        known = np.isin(keys, memo.clean_edges) & ~np.isin(keys, dirty)
+        live = live[~known[live]]
+    out = _prove(
         "proven_voronoi_loop", surface, vertices, tree,
         geometry.lo[live], geometry.hi[live], live, matters, settled, on_plane,
     )  # fmt: skip
+    if memo is not None:
+        bad = np.zeros(len(e), bool)
+        bad[out.owners] = True
+        memo.clean_edges = np.sort(keys[~bad])
+    return out
 
 
 def proven_silhouette_test(
-    surface: ImplicitSurface, rdt, vertices, normals, geometry: CellGeometry, tree, cells
+    surface: ImplicitSurface,
+    rdt,
+    vertices,
+    normals,
+    geometry: CellGeometry,
+    tree,
+    cells,
+    memo: ProofMemo | None = None,
 ) -> Violations:
     """The silhouette test on the Voronoi cells of ``cells`` (sample ids), with proof."""
     cells = np.asarray(cells, np.int64)
+    if memo is not None:
+        _, dirty = memo.touched(rdt, len(vertices))
+        known = np.isin(cells, memo.clean_cells) & ~np.isin(cells, dirty)
+        done, cells = cells[known], cells[~known]
     # Each cell's bounding box (its vertices are circumcentres, rounded: widen
     # a little), cut to the cube around the bounding sphere.
     box = rdt.voronoi_cell_boxes(cells)
@@ -147,9 +206,13 @@ def proven_silhouette_test(
         dlo, dhi = _dot(glo, ghi, normals[k])
         return (dlo > 0) | (dhi < 0)
 
-    return _prove(
+    out = _prove(
         "proven_silhouette", surface, vertices, tree, lo, hi, cells, matters, settled,
     )  # fmt: skip
+    if memo is not None:
+        memo.clean_cells = np.union1d(done, np.setdiff1d(cells, out.owners))
+        memo.samples = len(vertices)
+    return out
 
 
 def _prove(
@@ -206,14 +269,21 @@ def _prove(
         lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi1, hi])
         owner = np.concatenate([owner, owner])
     if not bad_lo:
-        return Violations(kind, 0, np.zeros((0, 3)), np.zeros(0))
+        return _Proof(kind, 0, np.zeros((0, 3)), np.zeros(0), owners=np.zeros(0, np.int64))
     blo, bhi, bown = (np.concatenate(x) for x in (bad_lo, bad_hi, bad_owner))
     # One violation per facet or cell: its first unsettled box.
-    _, first = np.unique(bown, return_index=True)
+    owners, first = np.unique(bown, return_index=True)
     start = 0.5 * (blo[first] + bhi[first])
     x, ok = _onto_surface(surface, start, (bhi[first] - blo[first]).max(axis=1))
     dist, _ = tree.query(x[ok])
-    return Violations(kind, len(first), x[ok], dist, start[~ok])
+    return _Proof(kind, len(first), x[ok], dist, start[~ok], owners=owners)
+
+
+@dataclass
+class _Proof(Violations):
+    """Violations, plus which facets (rows of the edges) or cells (sample ids) failed."""
+
+    owners: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
 def _chords(edges: np.ndarray, tri: np.ndarray, centres: np.ndarray):

@@ -21,7 +21,12 @@ from ..surfaces.oracle import ImplicitSurface
 from .complex import ComplexStatus, complex_status
 from .loops import LoopMemo
 from .proven import proven_edge_test
-from .proven_cells import CellGeometry, proven_loop_test, proven_silhouette_test
+from .proven_cells import (
+    CellGeometry,
+    ProofMemo,
+    proven_loop_test,
+    proven_silhouette_test,
+)
 from .tests import (
     SILHOUETTE_ANGLE,
     Violations,
@@ -44,6 +49,8 @@ class Snapshot:
     vertices : (n, 3) the samples, indexed by the core's vertex ids.
     memo : LoopMemo, optional
         Facets the loop test found clean in earlier rounds (kept across rounds).
+    proofs : ProofMemo, optional
+        Facets and cells the proven tests found clean in earlier rounds.
     """
 
     def __init__(
@@ -52,11 +59,13 @@ class Snapshot:
         rdt: core.RestrictedDelaunay,
         vertices: np.ndarray,
         memo: LoopMemo | None = None,
+        proofs: ProofMemo | None = None,
     ) -> None:
         self.surface = surface
         self.rdt = rdt
         self.vertices = vertices
         self.memo = memo if memo is not None else LoopMemo()
+        self.proofs = proofs
         self._facets: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._radii: dict[int, np.ndarray] = {}
         self._tests: dict[tuple, Violations | None] = {}
@@ -136,12 +145,13 @@ class Snapshot:
             return proven_edge_test(self.surface, self.rdt, self.vertices, tri, centres)
         if kind == "proven_voronoi_loop":
             return proven_loop_test(
-                self.surface, self.vertices, self.cells, self.tree, tri, centres
-            )
+                self.surface, self.vertices, self.cells, self.tree, tri, centres,
+                self.proofs, self.rdt,
+            )  # fmt: skip
         if kind == "proven_silhouette":
             return proven_silhouette_test(
                 self.surface, self.rdt, self.vertices, self.normals, self.cells, self.tree,
-                np.unique(tri),
+                np.unique(tri), self.proofs,
             )  # fmt: skip
         if kind == "isolated":
             return isolated_test(self.surface, self.vertices, tri, self.tree)
