@@ -139,6 +139,10 @@ def test_demo_writes_mesh_and_picture(tmp_path):
     mesh = load(tmp_path / "out" / "demo.ply")
     assert mesh.is_watertight and mesh.euler_number == 0
     assert read_png(tmp_path / "out" / "demo.png").shape == (200, 200, 4)
+    # The demo meshes the expression form with proofs: the summary says so.
+    out = run("demo", "--surface", "sphere", "--png-size", "100", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert "topological ball property: certified" in out.stdout
 
 
 def test_verbose_logs_on_stderr(tmp_path):

@@ -42,6 +42,7 @@ from .api import METHODS, mesh_surface
 from .io.result import MESH_FORMATS, SurfaceMesh
 from .refine.methods import TOPOLOGIES
 from .surfaces import SURFACES, get
+from .surfaces.builtin import BUILTIN_EXPRESSIONS
 from .surfaces.expressions import CONSTANTS, VARIABLES, parse_expression
 from .surfaces.oracle import ImplicitSurface
 
@@ -562,9 +563,15 @@ def main(argv: list[str] | None = None) -> int:
         if hasattr(args, "run"):
             return args.run(args)
         if args.command == "demo":
-            # A finer size than the API default: the picture should show the mesh.
-            surface = get(args.surface)
-            return _run(args, surface, radius_bound=surface.radius / 40)
+            # The built-in written as an expression, so the topological-ball
+            # method can prove its tests; a finer size than the API default,
+            # so the picture shows the mesh.
+            made = get(args.surface)
+            key = args.surface.strip().lower().replace("-", "_").replace(" ", "_")
+            surface = ImplicitSurface.from_expression(
+                BUILTIN_EXPRESSIONS[key], made.bounding_sphere, name=made.name
+            )
+            return _run(args, surface, radius_bound=made.radius / 40, method="topological-ball")
         return _run(
             args,
             _surface(args),
