@@ -22,6 +22,7 @@ from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._tol import REGION_LINK
 from ..io.result import SurfaceMesh
+from ..sampling.boundary import snap_to_curve
 from ..sampling.grid import check_sphere_near
 from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
@@ -34,6 +35,7 @@ from .methods import METHODS, Plan
 from .phases import Phases
 from .pipeline import FacetPipeline
 from .samples import Samples
+from .stages import Candidates
 from .timing import PhaseTimer
 
 log = logging.getLogger("rdmesh")
@@ -41,6 +43,9 @@ log = logging.getLogger("rdmesh")
 #: Safety cap on rounds; smooth inputs need tens. Reaching it ends the run
 #: with the remaining points unresolved, like the spacing floor.
 MAX_ROUNDS = 2000
+#: A refinement point moved onto the boundary curve is kept when it lies
+#: farther than this, times its ball's radius, from every sample.
+SNAP_KEEP = 0.25
 
 
 @dataclass
@@ -97,7 +102,11 @@ class Mesher:
         self.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
         self.samples = Samples(self.rdt)
         self.memo = LoopMemo()
-        self.pipeline = FacetPipeline(self.rdt, surface, criteria, workers, self.timer)
+        #: The surface may leave the ball; the mesh is the part inside.
+        self.clipped = topology == "manifold-with-boundary"
+        self.pipeline = FacetPipeline(
+            self.rdt, surface, criteria, workers, self.timer, clipped=self.clipped
+        )
         self.rounds = 0
         self.unresolved: list[np.ndarray] = []
         self._snap: Snapshot | None = None
@@ -125,7 +134,8 @@ class Mesher:
             try:
                 self._insert(seeds, "seeds")
                 stop = self._loop(plan, t0, stop)
-                check_sphere_near(self.surface, self.vertices)
+                if not self.clipped:
+                    check_sphere_near(self.surface, self.vertices)
             except KeyboardInterrupt:
                 # Keep the samples inserted so far and evaluate the interrupted
                 # round again from its start, so the partial mesh is consistent
@@ -166,6 +176,10 @@ class Mesher:
                 log.warning("ended at the cap of %d rounds; see unresolved", MAX_ROUNDS)
                 self.unresolved.append(found.centres)
                 break
+            if self.clipped and plan.boundary is not None and len(plan.boundary.points):
+                found = self._onto_curve(found, plan.boundary.size)
+                if len(found) == 0:
+                    break
             with self.timer("select"):
                 batch = found.centres[core.select_independent(found.centres, found.radii)]
             now = time.perf_counter()
@@ -201,6 +215,21 @@ class Mesher:
         if stop:
             self.pipeline.update(self.vertices)
         return stop
+
+    def _onto_curve(self, found: Candidates, size: float) -> Candidates:
+        """Refinement points near the sphere moved onto the boundary curve
+        (:func:`rdmesh.sampling.boundary.snap_to_curve`); moved points within
+        ``SNAP_KEEP`` times their ball's radius of a sample are left unresolved."""
+        points, snapped = snap_to_curve(self.surface, found.centres, size)
+        if not snapped.any():
+            return found
+        d, _ = self.snapshot().tree.query(points[snapped])
+        keep = np.ones(len(points), bool)
+        keep[np.flatnonzero(snapped)[d <= SNAP_KEEP * found.radii[snapped]]] = False
+        if not keep.all():
+            self.unresolved.append(found.centres[~keep])
+        found = Candidates(found.stage, points, found.radii, found.topological, found.violations)
+        return found.take(keep)
 
     @property
     def vertices(self) -> np.ndarray:
@@ -252,6 +281,7 @@ def _result(
                 floor=plan.floor_report,
                 discovery=plan.discovery,
                 proof=m.certify,
+                boundary=plan.boundary if m.clipped else None,
                 quick=bool(stop and stop.startswith("time_limit")),
             )
     except KeyboardInterrupt:
