@@ -22,7 +22,7 @@ from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._tol import REGION_LINK
 from ..io.result import SurfaceMesh
-from ..sampling.boundary import snap_to_curve
+from ..sampling.boundary import BoundaryCurve, guard_boundary
 from ..sampling.grid import check_sphere_near
 from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
@@ -43,9 +43,6 @@ log = logging.getLogger("rdmesh")
 #: Safety cap on rounds; smooth inputs need tens. Reaching it ends the run
 #: with the remaining points unresolved, like the spacing floor.
 MAX_ROUNDS = 2000
-#: A refinement point moved onto the boundary curve is kept when it lies
-#: farther than this, times its ball's radius, from every sample.
-SNAP_KEEP = 0.25
 
 
 @dataclass
@@ -177,7 +174,7 @@ class Mesher:
                 self.unresolved.append(found.centres)
                 break
             if self.clipped and plan.boundary is not None and len(plan.boundary.points):
-                found = self._onto_curve(found, plan.boundary.size)
+                found = self._onto_curve(found, plan.boundary)
                 if len(found) == 0:
                     break
             with self.timer("select"):
@@ -216,16 +213,15 @@ class Mesher:
             self.pipeline.update(self.vertices)
         return stop
 
-    def _onto_curve(self, found: Candidates, size: float) -> Candidates:
-        """Refinement points near the sphere moved onto the boundary curve
-        (:func:`rdmesh.sampling.boundary.snap_to_curve`); moved points within
-        ``SNAP_KEEP`` times their ball's radius of a sample are left unresolved."""
-        points, snapped = snap_to_curve(self.surface, found.centres, size)
-        if not snapped.any():
-            return found
-        d, _ = self.snapshot().tree.query(points[snapped])
-        keep = np.ones(len(points), bool)
-        keep[np.flatnonzero(snapped)[d <= SNAP_KEEP * found.radii[snapped]]] = False
+    def _onto_curve(self, found: Candidates, curve: BoundaryCurve) -> Candidates:
+        """Refinement points that would become boundary vertices moved onto the
+        boundary curve (:func:`rdmesh.sampling.boundary.guard_boundary`);
+        those that cannot be are left unresolved."""
+        points, snapped, keep = guard_boundary(
+            self.surface, curve, found.centres, found.radii, self.snapshot().tree
+        )
+        if snapped.any():
+            log.debug("%d refinement points moved onto the boundary curve", int(snapped.sum()))
         if not keep.all():
             self.unresolved.append(found.centres[~keep])
         found = Candidates(found.stage, points, found.radii, found.topological, found.violations)

@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
 from .._vectors import row_norms
-from ..sampling.boundary import SNAP_BAND, BoundaryCurve, boundary_curve
+from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve
 from ..sampling.critical import CriticalPoints, critical_points
 from ..sampling.discovery import Discovery, discover
 from ..sampling.grid import GridScan, fibonacci_sphere, grid_scan
@@ -92,7 +92,7 @@ def boissonnat_oudot(
         if len(boundary.points):
             # Seeds in the band along the sphere could be boundary vertices.
             depth = surface.radius - row_norms(scan.seeds - surface.centre)
-            inner = scan.seeds[depth >= SNAP_BAND * size]
+            inner = scan.seeds[depth >= SEED_BAND * size]
             seeds = np.concatenate([boundary.points, _away(inner, boundary.points, 0.5 * size)])
             scan = GridScan(seeds, scan.crossings, scan.spacing)
     stages: list[Stage] = [FacetStage("facet", core.BAD | core.TOPO, "unless-bad")]

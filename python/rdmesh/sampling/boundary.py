@@ -22,7 +22,7 @@ import numpy as np
 from scipy.optimize import elementwise
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, cKDTree
 
 from .._vectors import row_norms
 from ..surfaces.oracle import ImplicitSurface
@@ -50,6 +50,8 @@ class BoundaryCurve:
     lengths : (L,) the length of each traced loop (of its fine polyline).
     spacing : spacing of the Fibonacci point set that found the curve.
     size : the largest spacing of the samples along the curve.
+    dense : (q, 3) the traced curve: the crossings of the Fibonacci set's
+        edges, at most about ``spacing`` apart.
     """
 
     points: np.ndarray
@@ -57,6 +59,7 @@ class BoundaryCurve:
     lengths: np.ndarray
     spacing: float
     size: float
+    dense: np.ndarray
 
     @property
     def n_loops(self) -> int:
@@ -101,7 +104,9 @@ def boundary_curve(
     ukey, inverse = np.unique(key, return_inverse=True)
     a, b = ukey // n, ukey % n
     cut = inside[a] != inside[b]
-    empty = BoundaryCurve(np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0), h, size)
+    empty = BoundaryCurve(
+        np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0), h, size, np.zeros((0, 3))
+    )
     if not cut.any():
         return empty
     cut_id = np.full(len(ukey), -1)
@@ -125,7 +130,7 @@ def boundary_curve(
         n,
         len(points),
     )
-    return BoundaryCurve(points, which, lengths, h, size)
+    return BoundaryCurve(points, which, lengths, h, size, pts)
 
 
 def _arc_roots(surface: ImplicitSurface, p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -219,46 +224,68 @@ def _resample(pts, loop, n_loops, size, distance, R):
     return points, which, lengths
 
 
-#: A refinement point closer than this to the sphere, times the curve's
-#: spacing, is moved onto the curve (see :func:`snap_to_curve`).
-SNAP_BAND = 0.6
+#: A refinement point moved onto the curve is kept when it lies farther than
+#: this, times its ball's radius, from every sample.
+SNAP_KEEP = 0.25
+#: Seeds closer than this to the sphere, times the curve's spacing, are dropped.
+SEED_BAND = 0.6
 
 
-def snap_to_curve(
-    surface: ImplicitSurface, centres: np.ndarray, size: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Move refinement points near the sphere onto the boundary curve.
+def guard_boundary(
+    surface: ImplicitSurface,
+    curve: BoundaryCurve,
+    centres: np.ndarray,
+    radii: np.ndarray,
+    tree: cKDTree,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Keep interior refinement points off the boundary curve.
 
-    The curve's samples lie at most ``size`` apart along it, so every point
-    of the curve has one within ``size / 2``. A sample farther than that from
-    the sphere is then never the nearest sample of a curve point, and so
-    never a boundary vertex; a refinement point closer than that to the
-    sphere is projected onto the curve instead (a 1-D refinement of the
-    curve), when the projection lands within ``2 size`` of it.
+    A sample becomes a boundary vertex when it is the nearest sample of some
+    point of the curve. Every traced curve point ``c`` (the fine polyline)
+    has its nearest sample at distance ``d(c)``; a refinement point ``p``
+    with ``|c - p| > d(c) + h`` for every ``c`` (``h`` the polyline's
+    spacing) leaves the boundary as it is and is inserted unchanged. Any
+    other ``p`` is projected onto the curve (a 1-D refinement of the curve)
+    and kept there when the projection lands within ``2 size`` of ``p`` and
+    farther than ``SNAP_KEEP`` times its ball's radius from every sample.
 
     Parameters
     ----------
     surface : ImplicitSurface
+    curve : BoundaryCurve
     centres : (k, 3) refinement points inside the ball.
-    size : the curve samples' largest spacing.
+    radii : (k,) their balls' radii.
+    tree : KD-tree of the current samples.
 
     Returns
     -------
     points : (k, 3) the refinement points, moved where ``snapped``.
     snapped : (k,) bool
+    keep : (k,) bool: False where a moved point would nearly repeat a sample.
     """
-    c0, R = surface.centre, surface.radius
-    near = R - row_norms(centres - c0) < SNAP_BAND * size
+    k = len(centres)
     out = centres.copy()
-    if not near.any():
-        return out, near
-    moved = project_onto_curve(surface, centres[near])
-    ok = row_norms(moved - centres[near]) < 2.0 * size
-    rows = np.flatnonzero(near)[ok]
-    out[rows] = moved[ok]
-    snapped = np.zeros(len(centres), bool)
-    snapped[rows] = True
-    return out, snapped
+    snapped = np.zeros(k, bool)
+    keep = np.ones(k, bool)
+    if k == 0 or len(curve.dense) == 0:
+        return out, snapped, keep
+    d_c, _ = tree.query(curve.dense)
+    reach = d_c + curve.spacing
+    pairs = cKDTree(centres).sparse_distance_matrix(
+        cKDTree(curve.dense), float(reach.max()), output_type="coo_matrix"
+    )
+    near = pairs.row[pairs.data <= reach[pairs.col]]
+    rows = np.unique(near)
+    if len(rows) == 0:
+        return out, snapped, keep
+    moved = project_onto_curve(surface, centres[rows])
+    ok = row_norms(moved - centres[rows]) < 2.0 * curve.size
+    d, _ = tree.query(moved)
+    far = d > SNAP_KEEP * radii[rows]
+    out[rows[ok]] = moved[ok]
+    snapped[rows[ok]] = True
+    keep[rows[~(ok & far)]] = False
+    return out, snapped, keep
 
 
 def project_onto_curve(surface: ImplicitSurface, x: np.ndarray) -> np.ndarray:
