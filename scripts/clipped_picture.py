@@ -60,8 +60,8 @@ def measure(f, radius: float, bound: float | None) -> tuple[rdmesh.SurfaceMesh, 
         "loops": topo["boundary_loops"],
         "max |r-R|/R at boundary": float(np.abs(r[bv] - radius).max() / radius),
         "max |f| at boundary": float(np.abs(s(m.vertices[bv])).max()),
-        "min angle, no boundary edge": round(float(m.angles[~edge].min()), 2),
-        "min angle, boundary edge": round(float(m.angles[edge].min()), 2),
+        "min angle, <= 1 vertex on the sphere": round(float(m.angles[~edge].min()), 2),
+        "min angle, 2-3 vertices on the sphere": round(float(m.angles[edge].min()), 2),
         "seconds": round(seconds, 1),
     }
 

@@ -45,7 +45,7 @@ def _on_sphere(m: rdmesh.SurfaceMesh, centre, radius) -> np.ndarray:
 def _check_clipped(m, f, centre, radius, angle_bound=30.0):
     """What every clipped mesh satisfies: a manifold with boundary whose
     boundary vertices lie on the sphere and on the surface; the angle bound
-    on every triangle without an edge on the boundary."""
+    on every triangle with at most one vertex on the sphere."""
     assert m.complete
     assert m.is_manifold_with_boundary()
     assert not m.is_closed_manifold()
@@ -213,3 +213,21 @@ def test_cli_writes_a_mesh_with_boundary(tmp_path, capsys):
     bv = np.unique(uniq[counts == 1])
     r = np.linalg.norm(tm.vertices[bv], axis=1)
     assert np.abs(r - 1.0).max() <= 1e-6
+
+
+def test_boundary_follows_the_curve_within_the_distance_bound():
+    """Cylinder of radius 0.5: the boundary circles are bent enough that the
+    distance bound, not the size bound, sets the boundary's chords."""
+    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+    bound = 2e-3
+    m = rdmesh.mesh_surface(
+        s, topology="manifold-with-boundary", radius_bound=0.15, distance_bound=bound
+    )
+    _check_clipped(m, _cylinder, (0, 0, 0), 1.0)
+    edges, _ = _boundary(m)
+    mid = 0.5 * (m.vertices[edges[:, 0]] + m.vertices[edges[:, 1]])
+    # The curve point nearest each midpoint: on the same circle z = const.
+    z = np.sign(mid[:, 2]) * np.sqrt(0.75)
+    rho = np.hypot(mid[:, 0], mid[:, 1])
+    gap = np.hypot(0.5 - rho, mid[:, 2] - z)
+    assert gap.max() <= bound

@@ -60,8 +60,10 @@ def mesh_surface(
         bends, for the distance bound); those samples are inserted first, and
         refinement points near the sphere are moved onto the curve, so the
         boundary vertices lie on the sphere and on the surface. The angle
-        bound holds on every triangle without an edge on the boundary; those
-        with one are exempt (their smallest angle is measured, not bounded).
+        bound is applied to every triangle with at most one vertex on the
+        sphere; those with two or three (an edge along the boundary curve)
+        are exempt (their smallest angle is measured, not bounded: 20.9
+        degrees on a gyroid, see the README).
         Sampled, not certified: ``certify`` is refused.
     method : {"boissonnat-oudot", "topological-ball"}
         The refinement algorithm. "topological-ball" (Cheng-Dey-Ramos-Ray)

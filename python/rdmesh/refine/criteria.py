@@ -102,8 +102,8 @@ class FacetCriteria:
         centres : (k, 3) surface centres.
         radii : (k,) surface Delaunay ball radii.
         angle_exempt : (k,) bool, optional
-            Facets the angle bound does not apply to (those with an edge on
-            the boundary curve of a clipped surface).
+            Facets the angle bound does not apply to (on a clipped surface,
+            those with two or three vertices on the bounding sphere).
 
         Returns
         -------
