@@ -231,3 +231,15 @@ def test_boundary_follows_the_curve_within_the_distance_bound():
     rho = np.hypot(mid[:, 0], mid[:, 1])
     gap = np.hypot(0.5 - rho, mid[:, 2] - z)
     assert gap.max() <= bound
+
+
+def test_closed_surface_with_this_topology_reports_no_boundary():
+    s = rdmesh.ImplicitSurface(
+        lambda p: np.einsum("ij,ij->i", p, p) - 0.49, ((0, 0, 0), 1.0), name="sphere"
+    )
+    m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.15)
+    assert m.is_closed_manifold()
+    assert not m.is_manifold_with_boundary()
+    assert m.topology()["boundary_loops"] == [0]
+    assert m.report["boundary"] is None
+    assert "leaves the bounding sphere" not in m.report["statement"]

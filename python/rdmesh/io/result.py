@@ -63,8 +63,14 @@ class SurfaceMesh:
             How the components were found: ``level`` ``proven`` (interval
             subdivision, certify mode: a seed on every component) or
             ``sampled`` (grid scan), with the boxes' figures.
-        ``components``, ``euler``, ``closed_manifold``
+        ``components``, ``euler``, ``boundary_loops``, ``closed_manifold``
             Of the output mesh.
+        ``boundary``
+            A surface that leaves the bounding sphere
+            (``topology="manifold-with-boundary"``): ``curve_loops`` traced on
+            the sphere, ``mesh_loops``, ``loops_match``, ``genus`` per
+            component from chi = 2 - 2g - b and ``euler_consistent`` (a whole
+            genus, at least 0); None otherwise.
         ``unresolved_regions``, ``violation_regions``
             Where points were refused by the spacing floor, or tests still fail:
             ``centre``, ``radius`` and ``points`` of each cluster.

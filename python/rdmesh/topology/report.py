@@ -187,7 +187,9 @@ def topology_report(
             "morse_euler": morse,
             "agrees_with_mesh": bool(morse == sum(chi)) and not critical.degenerate.any(),
         }
-    report["boundary"] = None if boundary is None else _boundary(boundary, chi, loops)
+    # A closed surface meshed with this topology has no boundary to report.
+    clipped = boundary is not None and (boundary.n_loops > 0 or sum(loops) > 0)
+    report["boundary"] = _boundary(boundary, chi, loops) if clipped else None
     report["statement"] = _statement(report)
     return report
 
