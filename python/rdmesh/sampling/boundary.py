@@ -51,7 +51,9 @@ class BoundaryCurve:
     spacing : spacing of the Fibonacci point set that found the curve.
     size : the largest spacing of the samples along the curve.
     dense : (q, 3) the traced curve: the crossings of the Fibonacci set's
-        edges, at most about ``spacing`` apart.
+        edges, on the curve, consecutive ones at most ``gap`` apart.
+    gap : the longest edge of the Fibonacci set's hull (times R): a bound on
+        the distance between consecutive traced points.
     """
 
     points: np.ndarray
@@ -60,6 +62,7 @@ class BoundaryCurve:
     spacing: float
     size: float
     dense: np.ndarray
+    gap: float = 0.0
 
     @property
     def n_loops(self) -> int:
@@ -104,6 +107,7 @@ def boundary_curve(
     ukey, inverse = np.unique(key, return_inverse=True)
     a, b = ukey // n, ukey % n
     cut = inside[a] != inside[b]
+    gap = float(R * row_norms(u[a] - u[b]).max())
     empty = BoundaryCurve(
         np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0), h, size, np.zeros((0, 3))
     )
@@ -130,7 +134,7 @@ def boundary_curve(
         n,
         len(points),
     )
-    return BoundaryCurve(points, which, lengths, h, size, pts)
+    return BoundaryCurve(points, which, lengths, h, size, pts, gap)
 
 
 def _arc_roots(surface: ImplicitSurface, p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -243,11 +247,14 @@ def guard_boundary(
     A sample becomes a boundary vertex when it is the nearest sample of some
     point of the curve. Every traced curve point ``c`` (the fine polyline)
     has its nearest sample at distance ``d(c)``; a refinement point ``p``
-    with ``|c - p| > d(c) + h`` for every ``c`` (``h`` the polyline's
-    spacing) leaves the boundary as it is and is inserted unchanged. Any
-    other ``p`` is projected onto the curve (a 1-D refinement of the curve)
-    and kept there when the projection lands within ``2 size`` of ``p`` and
-    farther than ``SNAP_KEEP`` times its ball's radius from every sample.
+    with ``|c - p| > d(c) + gap`` for every ``c`` (``gap`` bounds the
+    distance between consecutive traced points) leaves the boundary as it
+    is and is inserted unchanged. Any other ``p`` is projected onto the
+    curve (a 1-D refinement of the curve) and kept there when the
+    projection lands within ``2 size`` of ``p`` and farther than
+    ``SNAP_KEEP`` times its ball's radius from every sample. When it cannot
+    be moved, it is inserted unchanged if only the margin ``gap`` caught it
+    (``|c - p| > d(c)`` at every traced point), and refused otherwise.
 
     Parameters
     ----------
@@ -270,21 +277,25 @@ def guard_boundary(
     if k == 0 or len(curve.dense) == 0:
         return out, snapped, keep
     d_c, _ = tree.query(curve.dense)
-    reach = d_c + curve.spacing
+    reach = d_c + curve.gap
     pairs = cKDTree(centres).sparse_distance_matrix(
         cKDTree(curve.dense), float(reach.max()), output_type="coo_matrix"
     )
-    near = pairs.row[pairs.data <= reach[pairs.col]]
-    rows = np.unique(near)
+    rows = np.unique(pairs.row[pairs.data <= reach[pairs.col]])
     if len(rows) == 0:
         return out, snapped, keep
+    # Nearer to a traced point than its nearest sample, without the margin.
+    closer = np.zeros(k, bool)
+    closer[pairs.row[pairs.data <= d_c[pairs.col]]] = True
     moved = project_onto_curve(surface, centres[rows])
     ok = row_norms(moved - centres[rows]) < 2.0 * curve.size
     d, _ = tree.query(moved)
-    far = d > SNAP_KEEP * radii[rows]
+    ok &= d > SNAP_KEEP * radii[rows]
     out[rows[ok]] = moved[ok]
     snapped[rows[ok]] = True
-    keep[rows[~(ok & far)]] = False
+    # A point that cannot be moved stays where it is when only the margin
+    # caught it; otherwise it is refused.
+    keep[rows[~ok & closer[rows]]] = False
     return out, snapped, keep
 
 
