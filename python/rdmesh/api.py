@@ -62,7 +62,7 @@ def mesh_surface(
         boundary vertices lie on the sphere and on the surface. The angle
         bound is applied to every triangle with at most one vertex on the
         sphere; those with two or three (an edge along the boundary curve)
-        are exempt (their smallest angle is measured, not bounded: 20.9
+        are exempt (their smallest angle is measured, not bounded: 19.6
         degrees on a gyroid, see the README).
         Sampled, not certified: ``certify`` is refused.
     method : {"boissonnat-oudot", "topological-ball"}
