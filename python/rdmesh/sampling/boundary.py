@@ -36,6 +36,8 @@ MAX_POINTS, MIN_POINTS = 400_000, 4_000
 PROJECT_ITERATIONS = 30
 #: Curve points per size bound when no distance bound tightens it.
 PER_BOUND = 1.0
+#: A curve sample is on the surface when |f| / |grad f| is below this, times R.
+CURVE_TOL = 1e-10
 
 
 @dataclass
@@ -128,6 +130,17 @@ def boundary_curve(
     pts = crossing[order]
     points, which, lengths = _resample(pts, loop, n_loops, size, distance, R)
     points = project_onto_curve(surface, points)
+    # A projection that did not converge is not on the surface: dropped.
+    g = row_norms(surface.grad(points))
+    on = np.abs(surface(points)) <= CURVE_TOL * R * np.maximum(g, 1e-300)
+    if not on.all():
+        log.warning(
+            "boundary curve: %d of %d samples did not converge onto the curve and were "
+            "dropped (the surface may be tangent to the sphere there)",
+            int((~on).sum()),
+            len(on),
+        )
+        points, which = points[on], which[on]
     log.info(
         "boundary curve: %d loops on the sphere (%d sphere points), %d samples",
         n_loops,
