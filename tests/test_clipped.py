@@ -243,3 +243,21 @@ def test_closed_surface_with_this_topology_reports_no_boundary():
     assert m.topology()["boundary_loops"] == [0]
     assert m.report["boundary"] is None
     assert "leaves the bounding sphere" not in m.report["statement"]
+
+
+def test_sizing_field_sets_the_boundary_spacing():
+    """A sizing field that grows with |z|: the boundary circles at
+    |z| = sqrt(0.75) get chords no longer than the field there."""
+    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+
+    def field(x):
+        return 0.03 + 0.1 * np.abs(x[:, 2])
+
+    m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=field)
+    _check_clipped(m, _cylinder, (0, 0, 0), 1.0)
+    edges, _ = _boundary(m)
+    a, b = m.vertices[edges[:, 0]], m.vertices[edges[:, 1]]
+    length = np.linalg.norm(a - b, axis=1)
+    assert (length <= field(0.5 * (a + b)) * (1 + 1e-6)).all()
+    # Not the field's smallest value on the sphere (0.03): the local one.
+    assert length.max() > 0.05

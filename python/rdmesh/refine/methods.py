@@ -88,7 +88,8 @@ def boissonnat_oudot(
     boundary = None
     if clipped:
         size = _boundary_spacing(surface, criteria)
-        boundary = boundary_curve(surface, size, criteria.distance_bound, resolution)
+        field = criteria.sizing if callable(criteria.radius_bound) else None
+        boundary = boundary_curve(surface, size, criteria.distance_bound, resolution, field)
         if len(boundary.points):
             # Seeds in the band along the sphere could be boundary vertices.
             depth = surface.radius - row_norms(scan.seeds - surface.centre)
@@ -195,15 +196,16 @@ def _scan(
 
 
 def _boundary_spacing(surface: ImplicitSurface, criteria: FacetCriteria) -> float:
-    """Spacing of the boundary curve's samples: the size bound (a sizing
-    field's smallest value on the sphere; a twentieth of R without one)."""
+    """Largest spacing of the boundary curve's samples: the size bound (a
+    sizing field's largest value on the sphere, the field itself setting the
+    spacing along the curve; a twentieth of R without one)."""
     bound = criteria.radius_bound
     if bound is None:
         return surface.radius / 20.0
     if not callable(bound):
         return float(bound)
     on_sphere = surface.centre + surface.radius * fibonacci_sphere(4000)
-    return float(np.min(criteria.sizing(on_sphere)))
+    return float(np.max(criteria.sizing(on_sphere)))
 
 
 def _away(points: np.ndarray, anchors: np.ndarray, distance: float) -> np.ndarray:

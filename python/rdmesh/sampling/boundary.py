@@ -16,6 +16,7 @@ samples. Sampled: a loop of C smaller than the point set's spacing is missed.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,6 +77,7 @@ def boundary_curve(
     size: float,
     distance: float | None = None,
     resolution: int = 64,
+    sizing: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> BoundaryCurve:
     """Find and sample the curve ``f = 0`` on the bounding sphere.
 
@@ -89,6 +91,9 @@ def boundary_curve(
         samples, estimated from the traced curve's turning.
     resolution : int
         The grid scan's resolution: the Fibonacci set is at least as fine.
+    sizing : callable, optional
+        A sizing field, ``(N, 3)`` points to ``N`` radii: the samples are at
+        most its value apart where it is below ``size``.
 
     Returns
     -------
@@ -128,7 +133,8 @@ def boundary_curve(
     n_loops, label = connected_components(g, directed=False)
     order, loop = _loop_order(pairs, label, n_loops, m)
     pts = crossing[order]
-    points, which, lengths = _resample(pts, loop, n_loops, size, distance, R)
+    local = np.full(len(pts), size) if sizing is None else np.minimum(size, sizing(pts))
+    points, which, lengths = _resample(pts, loop, n_loops, local, distance)
     points = project_onto_curve(surface, points)
     # A projection that did not converge is not on the surface: dropped.
     g = row_norms(surface.grad(points))
@@ -201,9 +207,10 @@ def _loop_order(pairs: np.ndarray, label: np.ndarray, n_loops: int, m: int):
     return order, loop
 
 
-def _resample(pts, loop, n_loops, size, distance, R):
-    """Points along each closed polyline, at most ``size`` apart (tighter where
-    the turning would put a chord farther than ``distance`` from the curve)."""
+def _resample(pts, loop, n_loops, size, distance):
+    """Points along each closed polyline, at most ``size`` (per point) apart
+    (tighter where the turning would put a chord farther than ``distance``
+    from the curve)."""
     nxt = np.arange(len(pts)) + 1
     ends = np.cumsum(np.bincount(loop, minlength=n_loops))
     starts = ends - np.bincount(loop, minlength=n_loops)
@@ -211,7 +218,7 @@ def _resample(pts, loop, n_loops, size, distance, R):
     seg = pts[nxt] - pts
     ell = row_norms(seg)
     lengths = np.bincount(loop, weights=ell, minlength=n_loops)
-    spacing = np.full(len(pts), size)
+    spacing = np.asarray(size, dtype=float)
     if distance is not None:
         # Curvature at each polyline vertex: turning angle over the mean
         # length of its two segments; a chord of length L bulges L^2 k / 8.
