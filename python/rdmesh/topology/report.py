@@ -318,7 +318,8 @@ def _statement(rep: dict[str, Any]) -> str:
             f"the mesh is the part inside, with {bd['mesh_loops']} boundary loops "
             f"({bd['curve_loops']} traced on the sphere); the topological-ball tests and "
             "certificates assume a closed surface inside the sphere, so nothing is "
-            "certified."
+            "certified (the boundary edges, with one triangle each, fail the Voronoi-facet "
+            "test by design)."
         )
     if rep["certified"]:
         lines.append(
