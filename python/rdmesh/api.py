@@ -52,7 +52,19 @@ def mesh_surface(
         centre (an approximation bound); None disables it.
     topology : {"manifold", "manifold-with-boundary", "non-manifold"}
         As CGAL's Manifold_tag, Manifold_with_boundary_tag and
-        Non_manifold_tag: what the final refinement stage repairs.
+        Non_manifold_tag: what the final refinement stage repairs. With
+        "manifold-with-boundary" (Boissonnat-Oudot only) the surface may also
+        cross the bounding sphere: the mesh is the part inside. The curve
+        where the surface meets the sphere is traced on a fine point set of
+        the sphere and sampled at most the size bound apart (closer where it
+        bends, for the distance bound); those samples are inserted first, and
+        refinement points near the sphere are moved onto the curve, so the
+        boundary vertices lie on the sphere and on the surface. The angle
+        bound is applied to every triangle with at most one vertex on the
+        sphere; those with two or three (an edge along the boundary curve)
+        are exempt (their smallest angle is measured, not bounded: 19.6
+        degrees on a gyroid, see the README).
+        Sampled, not certified: ``certify`` is refused.
     method : {"boissonnat-oudot", "topological-ball"}
         The refinement algorithm. "topological-ball" (Cheng-Dey-Ramos-Ray)
         first refines until the topological-ball tests hold (every Voronoi
@@ -111,7 +123,8 @@ def mesh_surface(
     rdmesh.EmptySurfaceError
         No surface inside the bounding sphere.
     rdmesh.BoundingSphereError
-        The surface reaches the bounding sphere.
+        The surface reaches the bounding sphere (topology "manifold" or
+        "non-manifold"; "manifold-with-boundary" meshes the part inside).
     rdmesh.BudgetExceeded
         ``max_vertices`` or ``time_limit`` stopped the run; the partial mesh
         is attached as ``.mesh`` and flagged ``complete=False`` (its report
@@ -138,7 +151,8 @@ def mesh_surface(
     if method == "topological-ball" and topology != "manifold":
         raise ValueError(
             f"method 'topological-ball' always produces a closed manifold; topology "
-            f"{topology!r} is only for 'boissonnat-oudot'"
+            f"{topology!r} is only for 'boissonnat-oudot' (surfaces that leave the "
+            "bounding sphere are not supported by 'topological-ball')"
         )
     if radius_bound is None and method == "boissonnat-oudot":
         radius_bound = surface.radius / 20.0
@@ -164,6 +178,11 @@ def mesh_surface(
         raise ValueError(
             "certify=True needs an expression surface (ImplicitSurface.from_expression): "
             "nothing can be proven about a plain function between its samples"
+        )
+    if certify and topology == "manifold-with-boundary":
+        raise ValueError(
+            "certify=True is not available with topology='manifold-with-boundary': the "
+            "proofs assume a closed surface strictly inside the bounding sphere"
         )
     budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
     if progress is not True and progress is not False and not callable(progress):

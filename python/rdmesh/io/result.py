@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..refine.criteria import min_angles
-from ..topology.complex import complex_status, euler_characteristics
+from ..topology.complex import boundary_loops, complex_status, euler_characteristics
 
 #: File formats :meth:`SurfaceMesh.save` writes (through trimesh).
 MESH_FORMATS = ("ply", "obj", "stl", "off", "glb", "gltf", "3mf", "dae")
@@ -63,8 +63,14 @@ class SurfaceMesh:
             How the components were found: ``level`` ``proven`` (interval
             subdivision, certify mode: a seed on every component) or
             ``sampled`` (grid scan), with the boxes' figures.
-        ``components``, ``euler``, ``closed_manifold``
+        ``components``, ``euler``, ``boundary_loops``, ``closed_manifold``
             Of the output mesh.
+        ``boundary``
+            A surface that leaves the bounding sphere
+            (``topology="manifold-with-boundary"``): ``curve_loops`` traced on
+            the sphere, ``mesh_loops``, ``loops_match``, ``genus`` per
+            component from chi = 2 - 2g - b and ``euler_consistent`` (a whole
+            genus, at least 0); None otherwise.
         ``unresolved_regions``, ``violation_regions``
             Where points were refused by the spacing floor, or tests still fail:
             ``centre``, ``radius`` and ``points`` of each cluster.
@@ -141,18 +147,36 @@ class SurfaceMesh:
         used = np.unique(self.faces)
         return bool(np.all(st.edge_count == 2) and np.all(st.vertex_fans[used] == 1))
 
-    def topology(self) -> dict[str, Any]:
-        """Components, and Euler characteristic and genus of each.
+    def is_manifold_with_boundary(self) -> bool:
+        """True when every edge has one or two faces, every vertex one fan of
+        faces, and some edge only one (a boundary): a surface meshed with
+        ``topology="manifold-with-boundary"`` that leaves the bounding sphere."""
+        if len(self.faces) == 0:
+            return False
+        st = complex_status(self.faces, len(self.vertices))
+        used = np.unique(self.faces)
+        return bool(
+            np.all(st.edge_count <= 2)
+            and np.any(st.edge_count == 1)
+            and np.all(st.vertex_fans[used] == 1)
+        )
 
-        Genus ``1 - chi / 2`` assumes closed orientable components, which every
-        closed surface embedded in space is.
+    def topology(self) -> dict[str, Any]:
+        """Components, and Euler characteristic, boundary loops and genus of each.
+
+        Genus ``(2 - chi - b) / 2`` for a component with ``b`` boundary
+        loops assumes orientable components, which every surface embedded in
+        space without self-intersection and cut by a sphere is.
         """
         chi = euler_characteristics(self.faces, len(self.vertices))
+        loops = boundary_loops(self.faces, len(self.vertices))
         return {
             "components": len(chi),
             "euler": chi,
-            "genus": [(2 - c) / 2 for c in chi],
+            "boundary_loops": loops,
+            "genus": [(2 - c - b) / 2 for c, b in zip(chi, loops, strict=True)],
             "closed_manifold": self.is_closed_manifold(),
+            "manifold_with_boundary": self.is_manifold_with_boundary(),
         }
 
     def to_trimesh(self):
@@ -200,7 +224,12 @@ class SurfaceMesh:
             f"vertices {len(self.vertices)}, faces {len(self.faces)}",
             f"min angle {self.min_angle:.2f} deg",
             f"components {topo['components']} (genus {genus}), "
-            f"closed manifold: {'yes' if topo['closed_manifold'] else 'no'}",
+            f"closed manifold: {'yes' if topo['closed_manifold'] else 'no'}"
+            + (
+                f", boundary loops {sum(topo['boundary_loops'])}"
+                if topo["manifold_with_boundary"]
+                else ""
+            ),
             f"time {self.stats.get('seconds', float('nan')):.2f} s, "
             f"{self.stats.get('rounds', 0)} rounds, "
             f"{self.stats.get('evaluations', 0)} evaluations of f",
@@ -211,7 +240,10 @@ class SurfaceMesh:
             lines.append(f"unresolved refinement points: {len(self.unresolved)}")
         if self.report:
             failed = [k for k, t in self.report["tests"].items() if t["held"] is False]
-            if self.report.get("certified"):
+            if self.report.get("boundary") is not None:
+                held = "not applicable (the surface leaves the bounding sphere), NOT certified"
+                failed = []
+            elif self.report.get("certified"):
                 held = "certified"
             elif self.report["tbp_holds"]:
                 held = "held on samples, NOT certified"

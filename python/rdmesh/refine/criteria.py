@@ -87,7 +87,13 @@ class FacetCriteria:
             )
         return psi
 
-    def bad(self, corners: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    def bad(
+        self,
+        corners: np.ndarray,
+        centres: np.ndarray,
+        radii: np.ndarray,
+        angle_exempt: np.ndarray | None = None,
+    ) -> np.ndarray:
         """Which facets fail a criterion.
 
         Parameters
@@ -95,6 +101,9 @@ class FacetCriteria:
         corners : (k, 3, 3) facet vertex coordinates.
         centres : (k, 3) surface centres.
         radii : (k,) surface Delaunay ball radii.
+        angle_exempt : (k,) bool, optional
+            Facets the angle bound does not apply to (on a clipped surface,
+            those with two or three vertices on the bounding sphere).
 
         Returns
         -------
@@ -104,7 +113,10 @@ class FacetCriteria:
         if len(corners) == 0:
             return bad
         if self.angle_bound > 0:
-            bad |= sin2_min_angle(corners) < math.sin(math.radians(self.angle_bound)) ** 2
+            skinny = sin2_min_angle(corners) < math.sin(math.radians(self.angle_bound)) ** 2
+            if angle_exempt is not None:
+                skinny &= ~angle_exempt
+            bad |= skinny
         psi = self.sizing(centres)
         if psi is not None:
             bad |= radii > psi

@@ -22,6 +22,7 @@ from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._tol import REGION_LINK
 from ..io.result import SurfaceMesh
+from ..sampling.boundary import BoundaryCurve, guard_boundary
 from ..sampling.grid import check_sphere_near
 from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
@@ -35,6 +36,7 @@ from .methods import METHODS, Plan
 from .phases import Phases
 from .pipeline import FacetPipeline
 from .samples import Samples
+from .stages import Candidates
 from .timing import PhaseTimer
 
 log = logging.getLogger("rdmesh")
@@ -99,7 +101,11 @@ class Mesher:
         self.samples = Samples(self.rdt)
         self.memo = LoopMemo()
         self.proofs = ProofMemo()
-        self.pipeline = FacetPipeline(self.rdt, surface, criteria, workers, self.timer)
+        #: The surface may leave the ball; the mesh is the part inside.
+        self.clipped = topology == "manifold-with-boundary"
+        self.pipeline = FacetPipeline(
+            self.rdt, surface, criteria, workers, self.timer, clipped=self.clipped
+        )
         self.rounds = 0
         self.unresolved: list[np.ndarray] = []
         self._snap: Snapshot | None = None
@@ -127,7 +133,8 @@ class Mesher:
             try:
                 self._insert(seeds, "seeds")
                 stop = self._loop(plan, t0, stop)
-                check_sphere_near(self.surface, self.vertices)
+                if not self.clipped:
+                    check_sphere_near(self.surface, self.vertices)
             except KeyboardInterrupt:
                 # Keep the samples inserted so far and evaluate the interrupted
                 # round again from its start, so the partial mesh is consistent
@@ -168,6 +175,10 @@ class Mesher:
                 log.warning("ended at the cap of %d rounds; see unresolved", MAX_ROUNDS)
                 self.unresolved.append(found.centres)
                 break
+            if self.clipped and plan.boundary is not None and len(plan.boundary.points):
+                found = self._onto_curve(found, plan.boundary)
+                if len(found) == 0:
+                    break
             with self.timer("select"):
                 batch = found.centres[core.select_independent(found.centres, found.radii)]
             now = time.perf_counter()
@@ -203,6 +214,20 @@ class Mesher:
         if stop:
             self.pipeline.update(self.vertices)
         return stop
+
+    def _onto_curve(self, found: Candidates, curve: BoundaryCurve) -> Candidates:
+        """Refinement points that would become boundary vertices moved onto the
+        boundary curve (:func:`rdmesh.sampling.boundary.guard_boundary`);
+        those that cannot be are left unresolved."""
+        points, snapped, keep = guard_boundary(
+            self.surface, curve, found.centres, found.radii, self.snapshot().tree
+        )
+        if snapped.any():
+            log.debug("%d refinement points moved onto the boundary curve", int(snapped.sum()))
+        if not keep.all():
+            self.unresolved.append(found.centres[~keep])
+        found = Candidates(found.stage, points, found.radii, found.topological, found.violations)
+        return found.take(keep)
 
     @property
     def vertices(self) -> np.ndarray:
@@ -254,6 +279,7 @@ def _result(
                 floor=plan.floor_report,
                 discovery=plan.discovery,
                 proof=m.certify,
+                boundary=plan.boundary if m.clipped else None,
                 quick=bool(stop and stop.startswith("time_limit")),
             )
     except KeyboardInterrupt:

@@ -22,9 +22,11 @@ from scipy.spatial import cKDTree
 
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
+from .._vectors import row_norms
+from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve
 from ..sampling.critical import CriticalPoints, critical_points
 from ..sampling.discovery import Discovery, discover
-from ..sampling.grid import GridScan, grid_scan
+from ..sampling.grid import GridScan, fibonacci_sphere, grid_scan
 from ..sampling.probes import Probes, surface_probes
 from ..surfaces.oracle import ImplicitSurface
 from ..topology.tests import CELL_NORMAL_ANGLE, PROBE_TARGET, TESTS
@@ -61,6 +63,8 @@ class Plan:
     critical: CriticalPoints | None = None
     floor_report: dict | None = None
     discovery: Discovery | None = None
+    #: The sampled curve where the surface leaves the ball (manifold-with-boundary).
+    boundary: BoundaryCurve | None = None
 
 
 def boissonnat_oudot(
@@ -72,9 +76,26 @@ def boissonnat_oudot(
     certify: bool = False,
 ) -> Plan:
     """Seeds from the grid scan (and, to certify, from the interval subdivision);
-    stages as CGAL's Surface_mesher with its manifold tags."""
+    stages as CGAL's Surface_mesher with its manifold tags.
+
+    With ``topology="manifold-with-boundary"`` the surface may leave the ball:
+    the curve where it meets the sphere is sampled first
+    (:mod:`rdmesh.sampling.boundary`) and its points are the first seeds.
+    """
     spacing = criteria.radius_bound if isinstance(criteria.radius_bound, float) else None
-    scan, found = _scan(surface, rng, resolution, spacing, certify)
+    clipped = topology == "manifold-with-boundary"
+    scan, found = _scan(surface, rng, resolution, spacing, certify, clipped)
+    boundary = None
+    if clipped:
+        size = _boundary_spacing(surface, criteria)
+        field = criteria.sizing if callable(criteria.radius_bound) else None
+        boundary = boundary_curve(surface, size, criteria.distance_bound, resolution, field)
+        if len(boundary.points):
+            # Seeds in the band along the sphere could be boundary vertices.
+            depth = surface.radius - row_norms(scan.seeds - surface.centre)
+            inner = scan.seeds[depth >= SEED_BAND * size]
+            seeds = np.concatenate([boundary.points, _away(inner, boundary.points, 0.5 * size)])
+            scan = GridScan(seeds, scan.crossings, scan.spacing)
     stages: list[Stage] = [FacetStage("facet", core.BAD | core.TOPO, "unless-bad")]
     if topology != "non-manifold":
         allow = topology == "manifold-with-boundary"
@@ -91,6 +112,7 @@ def boissonnat_oudot(
         topology_floor=MIN_SPACING * surface.radius,
         report_probes=lambda: Probes.on(surface, scan.crossings, scan.spacing),
         discovery=found,
+        boundary=boundary,
     )
 
 
@@ -153,11 +175,12 @@ def _scan(
     resolution: int,
     spacing: float | None,
     certify: bool,
+    clipped: bool = False,
 ) -> tuple[GridScan, Discovery | None]:
     """The grid scan (seeds, probes, the bounding-sphere check); to certify,
     plus the interval subdivision's points, which include one on every
     component when it is proven (:mod:`rdmesh.sampling.discovery`)."""
-    scan = grid_scan(surface, rng, resolution, spacing=spacing)
+    scan = grid_scan(surface, rng, resolution, spacing=spacing, clipped=clipped)
     if not certify:
         return scan, None
     found = discover(surface, surface.f, rng)
@@ -170,6 +193,19 @@ def _scan(
     )
     scan = GridScan(seeds, np.concatenate([scan.crossings, found.points]), scan.spacing)
     return scan, found
+
+
+def _boundary_spacing(surface: ImplicitSurface, criteria: FacetCriteria) -> float:
+    """Largest spacing of the boundary curve's samples: the size bound (a
+    sizing field's largest value on the sphere, the field itself setting the
+    spacing along the curve; a twentieth of R without one)."""
+    bound = criteria.radius_bound
+    if bound is None:
+        return surface.radius / 20.0
+    if not callable(bound):
+        return float(bound)
+    on_sphere = surface.centre + surface.radius * fibonacci_sphere(4000)
+    return float(np.max(criteria.sizing(on_sphere)))
 
 
 def _away(points: np.ndarray, anchors: np.ndarray, distance: float) -> np.ndarray:

@@ -19,7 +19,7 @@ from concurrent.futures import ThreadPoolExecutor, wait
 import numpy as np
 
 from .. import core
-from ..sampling.grid import check_sphere_ends
+from ..sampling.grid import ON_SPHERE, check_sphere_ends
 from ..surfaces.oracle import ImplicitSurface
 from .criteria import FacetCriteria
 from .facets import SAMPLING, DualSamples, evaluate_facets
@@ -44,6 +44,7 @@ class FacetPipeline:
     criteria : FacetCriteria
     workers : threads that evaluate slices of a chunk at once.
     timer : where the phases' times go.
+    clipped : the surface may cross the bounding sphere (no sphere check).
     """
 
     def __init__(
@@ -53,12 +54,15 @@ class FacetPipeline:
         criteria: FacetCriteria,
         workers: int,
         timer: PhaseTimer,
+        clipped: bool = False,
     ) -> None:
         self.rdt = rdt
         self.surface = surface
         self.criteria = criteria
         self.workers = workers
         self.timer = timer
+        #: The surface may leave the ball: no check at the sphere.
+        self.clipped = clipped
         #: Facets evaluated so far.
         self.evaluated = 0
         #: Dual segments whose root search failed (never used as surface points).
@@ -111,7 +115,8 @@ class FacetPipeline:
             job = self._worker.submit(rdt.changed_facets, CORE_CHUNK, **SAMPLING)
             with timed("evaluate"):
                 f_ends = self.surface(ends)
-                check_sphere_ends(self.surface, ends, f_ends)
+                if not self.clipped:
+                    check_sphere_ends(self.surface, ends, f_ends)
                 end_f = f_ends[end_index]
                 flags, centres = self._flags(vertices, tri, seg, end_f, rho, DualSamples(*samples))
             updates.append(self._worker.submit(rdt.update_facets, flags, centres))
@@ -136,7 +141,15 @@ class FacetPipeline:
             failed.append(ev.failed)
             r = ev.restricted
             bad = np.zeros(len(t), bool)
-            bad[r] = self.criteria.bad(vertices[t[r]], ev.centre[r], ev.radius[r])
+            corners = vertices[t[r]]
+            exempt = None
+            if self.clipped:
+                # Facets with an edge on the boundary curve: two vertices on
+                # the sphere.
+                d = np.linalg.norm(corners - self.surface.centre, axis=2)
+                on = np.abs(d - self.surface.radius) <= ON_SPHERE * self.surface.radius
+                exempt = on.sum(axis=1) >= 2
+            bad[r] = self.criteria.bad(corners, ev.centre[r], ev.radius[r], exempt)
             topo = r & ((ev.n_cross >= 2) | ev.tangential)
             flags[sl] = (
                 (r * core.RESTRICTED)

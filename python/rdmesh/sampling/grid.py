@@ -59,6 +59,7 @@ def grid_scan(
     rng: np.random.Generator,
     resolution: int = 64,
     spacing: float | None = None,
+    clipped: bool = False,
 ) -> GridScan:
     """Points on the components of the surface that cross grid edges (every component
     wider than about sqrt(3) grid spacings; smaller ones only by chance).
@@ -71,6 +72,10 @@ def grid_scan(
     spacing : float, optional
         Target distance between kept crossings on large components;
         default three grid cells.
+    clipped : bool
+        The surface may cross the bounding sphere
+        (``topology="manifold-with-boundary"``): no sphere check, and only
+        crossings inside the ball are kept.
 
     Returns
     -------
@@ -100,13 +105,14 @@ def grid_scan(
     dist = np.linalg.norm(local, axis=-1)
     outside_ball = dist >= R
     bad = np.concatenate([F[outside_ball & (F <= 0)], Fs[Fs <= 0]])
-    if bad.size:
+    if bad.size and not clipped:
         where = np.concatenate([nodes[outside_ball & (F <= 0)], on_sphere[Fs <= 0]])[0]
         raise BoundingSphereError(
             f"f <= 0 at {len(bad)} sampled points on or outside the bounding sphere "
             f"(e.g. {np.round(where, 6).tolist()}): the surface must lie strictly inside "
             "the sphere and f must be positive outside the surface; enlarge the radius "
-            "or flip the sign of f"
+            "or flip the sign of f (or mesh the part inside with "
+            'topology="manifold-with-boundary")'
         )
     inside = F < 0
     origins, dirs, lows, highs, cells = [], [], [], [], []
@@ -135,6 +141,14 @@ def grid_scan(
     samples = SegmentSamples.uniform(np.full(len(origin), h), 1)
     cr = line_crossings(surface, origin, direction, samples, xatol=SHOT_ATOL * R)
     points, cell = cr.point, cell[cr.segment]
+    if clipped:
+        within = row_norms(points - c0) < R
+        points, cell = points[within], cell[within]
+        if len(points) == 0:
+            raise EmptySurfaceError(
+                "f changes sign only outside the bounding sphere at grid spacing "
+                f"{h:.3g}: no surface found inside it"
+            )
     # Connected bands of grid cells that contain the surface.
     corners = [
         inside[i : n - 1 + i, j : n - 1 + j, k : n - 1 + k]
@@ -195,7 +209,8 @@ def check_sphere_ends(surface: ImplicitSurface, ends: np.ndarray, values: np.nda
         raise BoundingSphereError(
             f"f <= 0 at {len(bad)} points where Voronoi edges meet the bounding "
             f"sphere (e.g. {np.round(where, 6).tolist()}): the surface reaches the sphere; "
-            "enlarge the radius, or flip the sign of f if it is negative outside"
+            "enlarge the radius, flip the sign of f if it is negative outside, or mesh "
+            'the part inside with topology="manifold-with-boundary"'
         )
 
 
@@ -228,8 +243,9 @@ def check_sphere_near(surface: ImplicitSurface, samples: np.ndarray) -> None:
             where = x[int(np.argmax(f <= 0))]
             raise BoundingSphereError(
                 f"f <= 0 at {np.round(where, 6).tolist()} on the bounding sphere: the "
-                "surface reaches the sphere; enlarge the radius, or flip the sign of f if "
-                "it is negative outside"
+                "surface reaches the sphere; enlarge the radius, flip the sign of f if it "
+                "is negative outside, or mesh the part inside with "
+                'topology="manifold-with-boundary"'
             )
         n = (x - c0) / R
         g = surface.grad(x)

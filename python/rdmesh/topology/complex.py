@@ -144,3 +144,29 @@ def euler_characteristics(faces: np.ndarray, n_vertices: int) -> list[int]:
     _, first = np.unique(e, return_index=True)
     ne = np.bincount(np.tile(label, 3)[first], minlength=count)
     return [int(x) for x in nv - ne + nf]
+
+
+def boundary_loops(faces: np.ndarray, n_vertices: int) -> list[int]:
+    """Number of boundary loops of each component (in component order).
+
+    A boundary edge lies in exactly one face; the loops are the connected
+    components of the graph of boundary edges (on a manifold with boundary
+    every boundary vertex has two boundary edges, so each is a closed loop).
+    """
+    count, label = components(faces, n_vertices)
+    if count == 0:
+        return []
+    faces = np.asarray(faces, dtype=np.int64)
+    st = complex_status(faces, n_vertices)
+    key = st.edge_key[st.edge_count == 1]
+    if len(key) == 0:
+        return [0] * count
+    a, b = key // n_vertices, key % n_vertices
+    g = coo_matrix((np.ones(len(key)), (a, b)), shape=(n_vertices, n_vertices))
+    _, vlabel = connected_components(g, directed=False)
+    on = np.unique(np.concatenate([a, b]))
+    # Each loop in the component of a face of one of its vertices.
+    vcomp = np.empty(n_vertices, np.int64)
+    vcomp[faces.ravel()] = np.repeat(label, 3)
+    loops, first = np.unique(vlabel[on], return_index=True)
+    return [int(x) for x in np.bincount(vcomp[on[first]], minlength=count)]

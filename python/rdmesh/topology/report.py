@@ -13,10 +13,11 @@ from typing import Any
 import numpy as np
 
 from .._tol import REGION_LINK
+from ..sampling.boundary import BoundaryCurve
 from ..sampling.critical import CriticalPoints
 from ..sampling.discovery import Discovery
 from ..sampling.probes import Probes
-from .complex import euler_characteristics
+from .complex import boundary_loops, euler_characteristics
 from .regions import describe_regions, regions
 from .singular import singular_points
 from .snapshot import Snapshot
@@ -78,6 +79,7 @@ def topology_report(
     quick: bool = False,
     discovery: Discovery | None = None,
     proof: bool = False,
+    boundary: BoundaryCurve | None = None,
 ) -> dict[str, Any]:
     """The topology report of a finished run (see :attr:`SurfaceMesh.report`).
 
@@ -90,7 +92,10 @@ def topology_report(
     the mesh, so that the limit holds; the report then certifies nothing.
     ``discovery`` (the interval subdivision's seeding) and ``proof`` (the
     Voronoi edges' crossings checked by interval arithmetic) make those steps
-    ``proven`` where they held.
+    ``proven`` where they held. ``boundary`` (a run with
+    ``topology="manifold-with-boundary"``) adds the ``boundary`` entry: the
+    mesh's boundary loops against the loops traced on the sphere; such a
+    mesh is never certified.
     """
     tests: dict[str, dict[str, Any]] = {}
     where = []
@@ -129,6 +134,7 @@ def topology_report(
         for kind in ("voronoi_loop", "silhouette"):
             _prove_test(tests[kind], snap.test("proven_" + kind), link)
     chi = euler_characteristics(faces, n_mesh_vertices)
+    loops = boundary_loops(faces, n_mesh_vertices)
     # The output faces are the restricted facets: every edge in two faces is
     # the Voronoi-facet test, one fan per vertex is the disk test.
     closed = bool(len(faces) and tests["voronoi_facet"]["held"] and tests["disk"]["held"])
@@ -145,12 +151,14 @@ def topology_report(
         "method": method,
         "tbp_holds": holds,
         "certified": holds
+        and boundary is None
         and all(t["level"] == "proven" for t in tests.values())
         and seeding["level"] == "proven",
         "tests": tests,
         "seeding": seeding,
         "components": len(chi),
         "euler": chi,
+        "boundary_loops": loops,
         "closed_manifold": closed,
         "complete": complete,
         "unresolved": len(unresolved),
@@ -179,8 +187,32 @@ def topology_report(
             "morse_euler": morse,
             "agrees_with_mesh": bool(morse == sum(chi)) and not critical.degenerate.any(),
         }
+    # A closed surface meshed with this topology has no boundary to report.
+    clipped = boundary is not None and (boundary.n_loops > 0 or sum(loops) > 0)
+    report["boundary"] = _boundary(boundary, chi, loops) if clipped else None
     report["statement"] = _statement(report)
     return report
+
+
+def _boundary(curve: BoundaryCurve, chi: list[int], loops: list[int]) -> dict[str, Any]:
+    """The boundary of a clipped mesh against the curve traced on the sphere.
+
+    Each component with ``b`` boundary loops has ``chi = 2 - 2 g - b``: the
+    genus ``g`` it implies must be a whole number at least 0.
+    """
+    genus = [(2 - c - b) / 2 for c, b in zip(chi, loops, strict=True)]
+    consistent = all(g >= 0 and float(g).is_integer() for g in genus)
+    return {
+        "curve_loops": curve.n_loops,
+        "mesh_loops": int(sum(loops)),
+        "loops_match": int(sum(loops)) == curve.n_loops,
+        "curve_samples": len(curve.points),
+        "curve_spacing": curve.size,
+        "genus": genus,
+        "euler_consistent": consistent,
+        "basis": "sampled: the curve f = 0 on the sphere was traced on a Fibonacci point "
+        f"set at spacing {curve.spacing:.3g}; loops smaller than that can be missed",
+    }
 
 
 def _prove_edges(tests: dict[str, dict[str, Any]], proven: Violations, link: float) -> None:
@@ -279,6 +311,16 @@ def _statement(rep: dict[str, Any]) -> str:
         f"probes on the surface at spacing about {spacing:.3g}" if spacing else "no probes"
     )
     lines = []
+    bd = rep.get("boundary")
+    if bd is not None:
+        lines.append(
+            "The surface leaves the bounding sphere (topology='manifold-with-boundary'): "
+            f"the mesh is the part inside, with {bd['mesh_loops']} boundary loops "
+            f"({bd['curve_loops']} traced on the sphere); the topological-ball tests and "
+            "certificates assume a closed surface inside the sphere, so nothing is "
+            "certified (the boundary edges, with one triangle each, fail the Voronoi-facet "
+            "test by design)."
+        )
     if rep["certified"]:
         lines.append(
             "The topology is certified: every topological-ball test is proven, so the mesh "

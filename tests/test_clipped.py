@@ -1,0 +1,263 @@
+"""Surfaces that leave the bounding sphere: topology="manifold-with-boundary"."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rdmesh
+import trimesh
+from rdmesh.cli import main
+from rdmesh.sampling.boundary import boundary_curve
+from rdmesh.topology.complex import boundary_loops, complex_status
+
+GYROID = "sin(3*x)*cos(3*y) + sin(3*y)*cos(3*z) + sin(3*z)*cos(3*x)"
+
+
+def _plane(p):
+    return p[:, 2] - 0.3 - 0.1 * p[:, 0]
+
+
+def _cylinder(p):
+    return p[:, 0] ** 2 + p[:, 1] ** 2 - 0.25
+
+
+def _torus_off_centre(p):
+    """A torus (radii 0.6 and 0.2) centred at (1, 0, 0): the unit ball holds
+    one piece of its tube, an annulus."""
+    q = np.sqrt((p[:, 0] - 1.0) ** 2 + p[:, 1] ** 2) - 0.6
+    return q * q + p[:, 2] ** 2 - 0.04
+
+
+def _boundary(m: rdmesh.SurfaceMesh) -> tuple[np.ndarray, np.ndarray]:
+    """The boundary edges (pairs of vertex ids) and the boundary vertex ids."""
+    n = len(m.vertices)
+    st = complex_status(m.faces, n)
+    key = st.edge_key[st.edge_count == 1]
+    edges = np.column_stack([key // n, key % n])
+    return edges, np.unique(edges)
+
+
+def _on_sphere(m: rdmesh.SurfaceMesh, centre, radius) -> np.ndarray:
+    r = np.linalg.norm(m.vertices - np.asarray(centre, float), axis=1)
+    return np.abs(r - radius) <= 1e-9 * radius
+
+
+def _check_clipped(m, f, centre, radius, angle_bound=30.0):
+    """What every clipped mesh satisfies: a manifold with boundary whose
+    boundary vertices lie on the sphere and on the surface; the angle bound
+    on every triangle with at most one vertex on the sphere."""
+    assert m.complete
+    assert m.is_manifold_with_boundary()
+    assert not m.is_closed_manifold()
+    _, bv = _boundary(m)
+    assert len(bv) > 0
+    assert _on_sphere(m, centre, radius)[bv].all()
+    assert np.abs(f(m.vertices[bv])).max() <= 1e-9 * radius
+    # Every vertex inside the ball (to rounding) and on the surface.
+    r = np.linalg.norm(m.vertices - np.asarray(centre, float), axis=1)
+    assert r.max() <= radius * (1 + 1e-12)
+    assert np.abs(f(m.vertices)).max() <= 1e-6 * radius
+    on_boundary_edge = _on_sphere(m, centre, radius)[m.faces].sum(axis=1) >= 2
+    assert m.angles[~on_boundary_edge].min() >= angle_bound - 1e-9
+    rep = m.report
+    assert rep["certified"] is False
+    assert m.topology_certified is False
+    assert rep["boundary"]["loops_match"] is True
+    assert rep["boundary"]["euler_consistent"] is True
+
+
+@pytest.fixture(scope="module")
+def disk():
+    s = rdmesh.ImplicitSurface(_plane, ((0, 0, 0), 1.0))
+    return s, rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.1)
+
+
+def test_plane_through_the_sphere_is_a_disk(disk):
+    s, m = disk
+    _check_clipped(m, _plane, (0, 0, 0), 1.0)
+    topo = m.topology()
+    assert topo["components"] == 1
+    assert topo["euler"] == [1]
+    assert topo["boundary_loops"] == [1]
+    assert topo["manifold_with_boundary"] is True
+    # The boundary polygon is inscribed in the circle: a little shorter.
+    edges, _ = _boundary(m)
+    length = np.linalg.norm(m.vertices[edges[:, 0]] - m.vertices[edges[:, 1]], axis=1).sum()
+    d = 0.3 / np.sqrt(1.01)
+    circle = 2 * np.pi * np.sqrt(1 - d * d)
+    assert circle * 0.995 < length <= circle
+    # Boundary edges no longer than twice the size bound (chords of the curve
+    # samples, at most the bound apart along it).
+    edge_len = np.linalg.norm(m.vertices[edges[:, 0]] - m.vertices[edges[:, 1]], axis=1)
+    assert edge_len.max() <= 0.1 + 1e-9
+
+
+def test_report_and_summary_say_boundary_and_not_certified(disk):
+    _, m = disk
+    rep = m.report
+    assert rep["boundary_loops"] == [1]
+    assert rep["boundary"]["curve_loops"] == 1
+    assert "leaves the bounding sphere" in rep["statement"]
+    assert "nothing is certified" in rep["statement"]
+    text = m.summary()
+    assert "boundary loops 1" in text
+    assert "NOT certified" in text
+
+
+def test_cylinder_longer_than_the_domain_is_an_annulus():
+    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+    m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.08)
+    _check_clipped(m, _cylinder, (0, 0, 0), 1.0)
+    topo = m.topology()
+    assert (topo["components"], topo["euler"], topo["boundary_loops"]) == (1, [0], [2])
+    # Two circles of radius 0.5 at z = +-sqrt(0.75).
+    _, bv = _boundary(m)
+    z = m.vertices[bv, 2]
+    assert np.allclose(np.abs(z), np.sqrt(0.75), atol=1e-9)
+    assert (z > 0).any() and (z < 0).any()
+
+
+def test_torus_cut_by_the_sphere_is_an_annulus():
+    s = rdmesh.ImplicitSurface(_torus_off_centre, ((0, 0, 0), 1.0))
+    m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.05)
+    _check_clipped(m, _torus_off_centre, (0, 0, 0), 1.0)
+    topo = m.topology()
+    assert (topo["components"], topo["euler"], topo["boundary_loops"]) == (1, [0], [2])
+
+
+def test_gyroid_in_a_sphere_quick():
+    s = rdmesh.ImplicitSurface.from_expression(GYROID, ((0, 0, 0), 2.0))
+    m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.2)
+    _check_clipped(m, s.f, (0, 0, 0), 2.0)
+    topo = m.topology()
+    assert sum(topo["boundary_loops"]) >= 1
+    # chi = 2 - 2g - b per component with a whole genus.
+    for chi, b in zip(topo["euler"], topo["boundary_loops"], strict=True):
+        assert (2 - chi - b) % 2 == 0 and 2 - chi - b >= 0
+
+
+@pytest.mark.slow
+def test_gyroid_in_a_sphere_default_bounds():
+    """The case of the issue: the default size bound (R / 20)."""
+    s = rdmesh.ImplicitSurface.from_expression(GYROID, ((0, 0, 0), 2.0))
+    m = rdmesh.mesh_surface(s, topology="manifold-with-boundary")
+    _check_clipped(m, s.f, (0, 0, 0), 2.0)
+
+
+def test_same_seed_same_mesh():
+    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+    a = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.15, seed=3)
+    b = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.15, seed=3)
+    assert np.array_equal(a.vertices, b.vertices)
+    assert np.array_equal(a.faces, b.faces)
+
+
+def test_distance_bound_tightens_the_curve_sampling():
+    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+    loose = boundary_curve(s, 0.3)
+    tight = boundary_curve(s, 0.3, distance=1e-3)
+    assert loose.n_loops == tight.n_loops == 2
+    # Circles of radius 0.5: a chord of length L bulges L^2 / (8 * 0.5).
+    assert len(tight.points) > len(loose.points)
+    step = np.linalg.norm(np.diff(tight.points[tight.loop == 0], axis=0), axis=1)
+    assert (step**2 / 4.0).max() <= 1e-3 * 1.1
+
+
+@pytest.mark.parametrize("topology", ["manifold", "non-manifold"])
+def test_other_topologies_refuse_a_clipped_surface(topology):
+    s = rdmesh.ImplicitSurface(_plane, ((0, 0, 0), 1.0))
+    with pytest.raises(rdmesh.BoundingSphereError, match="manifold-with-boundary"):
+        rdmesh.mesh_surface(s, topology=topology, radius_bound=0.1)
+
+
+def test_topological_ball_and_certify_refuse_manifold_with_boundary():
+    s = rdmesh.ImplicitSurface.from_expression("z - 0.3", ((0, 0, 0), 1.0))
+    with pytest.raises(ValueError, match="not supported"):
+        rdmesh.mesh_surface(s, topology="manifold-with-boundary", method="topological-ball")
+    with pytest.raises(ValueError, match="certify=True is not available"):
+        rdmesh.mesh_surface(s, topology="manifold-with-boundary", certify=True)
+
+
+def test_boundary_loops_of_small_meshes():
+    one = np.array([[0, 1, 2]])
+    assert boundary_loops(one, 3) == [1]
+    two = np.array([[0, 1, 2], [3, 4, 5]])
+    assert boundary_loops(two, 6) == [1, 1]
+    # A closed tetrahedron has none.
+    tet = np.array([[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]])
+    assert boundary_loops(tet, 4) == [0]
+
+
+def test_cli_writes_a_mesh_with_boundary(tmp_path, capsys):
+    out = tmp_path / "disk.ply"
+    code = main(
+        [
+            "mesh",
+            "z - 0.3",
+            "--bound",
+            "1",
+            "--radius",
+            "0.15",
+            "--topology",
+            "manifold-with-boundary",
+            "-o",
+            str(out),
+        ]
+    )
+    assert code == 0
+    assert "boundary loops 1" in capsys.readouterr().out
+    tm = trimesh.load(out, process=False)
+    uniq, counts = np.unique(np.sort(tm.edges, axis=1), axis=0, return_counts=True)
+    assert (counts == 1).any() and counts.max() == 2
+    assert tm.euler_number == 1
+    bv = np.unique(uniq[counts == 1])
+    r = np.linalg.norm(tm.vertices[bv], axis=1)
+    assert np.abs(r - 1.0).max() <= 1e-6
+
+
+def test_boundary_follows_the_curve_within_the_distance_bound():
+    """Cylinder of radius 0.5: the boundary circles are bent enough that the
+    distance bound, not the size bound, sets the boundary's chords."""
+    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+    bound = 2e-3
+    m = rdmesh.mesh_surface(
+        s, topology="manifold-with-boundary", radius_bound=0.15, distance_bound=bound
+    )
+    _check_clipped(m, _cylinder, (0, 0, 0), 1.0)
+    edges, _ = _boundary(m)
+    mid = 0.5 * (m.vertices[edges[:, 0]] + m.vertices[edges[:, 1]])
+    # The curve point nearest each midpoint: on the same circle z = const.
+    z = np.sign(mid[:, 2]) * np.sqrt(0.75)
+    rho = np.hypot(mid[:, 0], mid[:, 1])
+    gap = np.hypot(0.5 - rho, mid[:, 2] - z)
+    assert gap.max() <= bound
+
+
+def test_closed_surface_with_this_topology_reports_no_boundary():
+    s = rdmesh.ImplicitSurface(
+        lambda p: np.einsum("ij,ij->i", p, p) - 0.49, ((0, 0, 0), 1.0), name="sphere"
+    )
+    m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.15)
+    assert m.is_closed_manifold()
+    assert not m.is_manifold_with_boundary()
+    assert m.topology()["boundary_loops"] == [0]
+    assert m.report["boundary"] is None
+    assert "leaves the bounding sphere" not in m.report["statement"]
+
+
+def test_sizing_field_sets_the_boundary_spacing():
+    """A sizing field that grows with |z|: the boundary circles at
+    |z| = sqrt(0.75) get chords no longer than the field there."""
+    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+
+    def field(x):
+        return 0.03 + 0.1 * np.abs(x[:, 2])
+
+    m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=field)
+    _check_clipped(m, _cylinder, (0, 0, 0), 1.0)
+    edges, _ = _boundary(m)
+    a, b = m.vertices[edges[:, 0]], m.vertices[edges[:, 1]]
+    length = np.linalg.norm(a - b, axis=1)
+    assert (length <= field(0.5 * (a + b)) * (1 + 1e-6)).all()
+    # Not the field's smallest value on the sphere (0.03): the local one.
+    assert length.max() > 0.05
