@@ -136,14 +136,8 @@ class Mesher:
                 if not self.clipped:
                     check_sphere_near(self.surface, self.vertices)
             except KeyboardInterrupt:
-                # Keep the samples inserted so far and evaluate the interrupted
-                # round again from its start, so the partial mesh is consistent
-                # (the pipeline has settled the core's jobs).
                 interrupted, stop = True, "interrupted"
-                self.samples.reload()
-                self.rdt.restart_round()
-                self._snap = None
-                self.pipeline.update(self.vertices)
+                _restart_round(self)
             mesh = _result(self, plan, t0, evals0, ivals0, stop)
         finally:
             self.pipeline.close()
@@ -176,7 +170,8 @@ class Mesher:
                 self.unresolved.append(found.centres)
                 break
             if self.clipped and plan.boundary is not None and len(plan.boundary.points):
-                found = self._onto_curve(found, plan.boundary)
+                found, refused = onto_curve(self.surface, plan.boundary, found, self.snapshot())
+                self.unresolved.append(refused)
                 if len(found) == 0:
                     break
             with self.timer("select"):
@@ -193,41 +188,15 @@ class Mesher:
             if self._insert(batch, found.stage) == 0 and len(batch):
                 # Repeating the batch would add nothing again (CGAL's "element
                 # survives its own refinement point" error).
-                self.stalled = True
-                stop = (
-                    f"no progress: the {found.stage} stage's {len(batch)} refinement points "
-                    "are all existing samples"
-                )
+                self.stalled, stop = True, _no_progress(found.stage, len(batch))
             log.debug(
                 "round %d: %s stage, %d samples", self.rounds, found.stage, len(self.vertices)
             )
             if self.progress is not None:
-                self.progress(
-                    {
-                        "round": self.rounds,
-                        "stage": found.stage,
-                        "inserted": len(batch),
-                        "vertices": len(self.vertices),
-                        "seconds": time.perf_counter() - t0,
-                    }
-                )
+                self.progress(_progress(self.rounds, found.stage, len(batch), self.vertices, t0))
         if stop:
             self.pipeline.update(self.vertices)
         return stop
-
-    def _onto_curve(self, found: Candidates, curve: BoundaryCurve) -> Candidates:
-        """Refinement points that would become boundary vertices moved onto the
-        boundary curve (:func:`rdmesh.sampling.boundary.guard_boundary`);
-        those that cannot be are left unresolved."""
-        points, snapped, keep = guard_boundary(
-            self.surface, curve, found.centres, found.radii, self.snapshot().tree
-        )
-        if snapped.any():
-            log.debug("%d refinement points moved onto the boundary curve", int(snapped.sum()))
-        if not keep.all():
-            self.unresolved.append(found.centres[~keep])
-        found = Candidates(found.stage, points, found.radii, found.topological, found.violations)
-        return found.take(keep)
 
     @property
     def vertices(self) -> np.ndarray:
@@ -243,6 +212,44 @@ class Mesher:
         if self._snap is None:
             self._snap = Snapshot(self.surface, self.rdt, self.vertices, self.memo, self.proofs)
         return self._snap
+
+
+def _restart_round(m: Mesher) -> None:
+    """After Ctrl-C: keep the samples inserted so far and evaluate the
+    interrupted round again from its start, so the partial mesh is consistent
+    (the pipeline has settled the core's jobs)."""
+    m.samples.reload()
+    m.rdt.restart_round()
+    m._snap = None
+    m.pipeline.update(m.vertices)
+
+
+def _no_progress(stage: str, n: int) -> str:
+    return f"no progress: the {stage} stage's {n} refinement points are all existing samples"
+
+
+def onto_curve(
+    surface: ImplicitSurface, curve: BoundaryCurve, found: Candidates, snap: Snapshot
+) -> tuple[Candidates, np.ndarray]:
+    """Refinement points that would become boundary vertices moved onto the
+    boundary curve (:func:`rdmesh.sampling.boundary.guard_boundary`), and
+    the points that cannot be (left unresolved)."""
+    points, snapped, keep = guard_boundary(surface, curve, found.centres, found.radii, snap.tree)
+    if snapped.any():
+        log.debug("%d refinement points moved onto the boundary curve", int(snapped.sum()))
+    found = Candidates(found.stage, points, found.radii, found.topological, found.violations)
+    return found.take(keep), found.centres[~keep]
+
+
+def _progress(rounds: int, stage: str, inserted: int, vertices: np.ndarray, t0: float) -> dict:
+    """What the progress callback gets after a round."""
+    return {
+        "round": rounds,
+        "stage": stage,
+        "inserted": inserted,
+        "vertices": len(vertices),
+        "seconds": time.perf_counter() - t0,
+    }
 
 
 def _stopped(stop: str, mesh: SurfaceMesh, interrupted: bool, stalled: bool) -> Exception:
