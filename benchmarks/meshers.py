@@ -6,7 +6,10 @@ Parent side (the suite): ``adapters(names, args, record, log)`` returns one
 adapter per mesher.  An adapter gives a case's parameters (``params``), the
 command of one run (``command``), its timeout and repeats, why a size is
 skipped (``skip``), and turns the finished run into the run record's fields
-(``parse``: seconds, vertices, faces, evaluations, extra).
+(``parse``: seconds, vertices, faces, evaluations, extra).  The floor
+(``cgal_delaunay_floor``) is an adapter too: it times CGAL's bulk
+``Delaunay_triangulation_3`` of the vertices the suite kept from the case's
+rdmesh run, and writes no mesh.
 
 Child side: ``python benchmarks/meshers.py SPEC`` runs one Python mesher
 (rdmesh, pygalmesh, marching cubes) as the JSON ``SPEC`` describes, times the
