@@ -19,6 +19,11 @@ Typical use::
 ``cgal_version``, ``bounding_sphere`` ([cx, cy, cz, r]), the criteria,
 ``error_bound``, ``seed``, ``closed``, ``components`` and
 ``euler_characteristic`` of the output surface.
+
+``mesh_3`` is make_mesh_3 with ``params::manifold()``, ``mesh_3_fast`` the
+same without it.  The floor of the benchmarks, CGAL's bulk
+``Delaunay_triangulation_3(begin, end)`` of given points, runs with
+``delaunay_command(exe, points_file)`` (points written by ``write_points``).
 """
 
 from __future__ import annotations
@@ -41,9 +46,11 @@ __all__ = [
     "SURFACES",
     "CgalReferenceError",
     "build_reference",
+    "delaunay_command",
     "parse_reference_output",
     "reference_command",
     "run_reference",
+    "write_points",
 ]
 
 logger = logging.getLogger(__name__)
@@ -53,7 +60,7 @@ SOURCE_DIR = _HERE / "cgal_reference"
 DEFAULT_BUILD_DIR = _HERE / "build" / "cgal_reference"
 _EXE_NAME = "cgal_reference"
 
-MESHERS = ("surface_mesher", "mesh_3")
+MESHERS = ("surface_mesher", "mesh_3", "mesh_3_fast")
 SURFACES = (
     "sphere",
     "ellipsoid",
@@ -243,6 +250,22 @@ def reference_command(
     if out is not None:
         cmd += ["--out", str(out)]
     return cmd
+
+
+def write_points(path: PathLike, points: Any) -> None:
+    """Write points ((N, 3), finite) as text, ``x y z`` per line, 17 digits.
+
+    What ``--mesher delaunay --points`` reads.
+    """
+    with open(path, "w") as fh:
+        for p in points:
+            x, y, z = (float(c) for c in p)
+            fh.write(f"{x!r} {y!r} {z!r}\n")
+
+
+def delaunay_command(exe: PathLike, points: PathLike) -> list[str]:
+    """The command timing CGAL's bulk Delaunay_triangulation_3 of a points file."""
+    return [str(exe), "--mesher", "delaunay", "--points", str(points)]
 
 
 def parse_reference_output(

@@ -6,7 +6,10 @@ Parent side (the suite): ``adapters(names, args, record, log)`` returns one
 adapter per mesher.  An adapter gives a case's parameters (``params``), the
 command of one run (``command``), its timeout and repeats, why a size is
 skipped (``skip``), and turns the finished run into the run record's fields
-(``parse``: seconds, vertices, faces, evaluations, extra).
+(``parse``: seconds, vertices, faces, evaluations, extra).  The floor
+(``cgal_delaunay_floor``) is an adapter too: it times CGAL's bulk
+``Delaunay_triangulation_3`` of the vertices the suite kept from the case's
+rdmesh run, and writes no mesh.
 
 Child side: ``python benchmarks/meshers.py SPEC`` runs one Python mesher
 (rdmesh, pygalmesh, marching cubes) as the JSON ``SPEC`` describes, times the
@@ -30,17 +33,27 @@ from measure import last_line, run_measured
 from meshfile import save_mesh
 from record import fmt_size, jsonable
 
-__all__ = ["CGAL_MESHERS", "MESHERS", "adapters", "child_main"]
+__all__ = ["CGAL_MESHERS", "FLOOR", "MESHERS", "adapters", "child_main"]
 
 MESHERS = (
     "rdmesh",
     "rdmesh_certified",
     "cgal_surface_mesher",
     "cgal_mesh_3",
+    "cgal_mesh_3_fast",
     "pygalmesh",
     "marching_cubes",
+    "cgal_delaunay_floor",
 )
-CGAL_MESHERS = {"cgal_surface_mesher": "surface_mesher", "cgal_mesh_3": "mesh_3"}
+CGAL_MESHERS = {
+    "cgal_surface_mesher": "surface_mesher",
+    "cgal_mesh_3": "mesh_3",
+    "cgal_mesh_3_fast": "mesh_3_fast",
+}
+#: The floor: CGAL's bulk Delaunay_triangulation_3(begin, end) of the vertices
+#: rdmesh output for the same case (not a mesher: a lower bound on the work of
+#: any method that ends in a 3D Delaunay triangulation of those vertices).
+FLOOR = "cgal_delaunay_floor"
 #: Marching cubes gives about this many vertices per (area / spacing^2): one
 #: per grid edge the surface crosses, 1.5 on average over normal directions.
 MC_VERTICES_PER_CELL_AREA = 1.5
@@ -224,6 +237,7 @@ class Mesher:
     """What every adapter shares: radius bound = distance bound = r, no limits."""
 
     suffix = ".npz"  # the mesh file a run writes
+    writes_mesh = True  # False: no surface, no quality entry
 
     def __init__(self, name: str) -> None:
         self.name = name
@@ -388,6 +402,53 @@ class Cgal(Mesher):
         }
 
 
+class DelaunayFloor(Mesher):
+    """The floor: CGAL's bulk Delaunay build of rdmesh's vertices of the same case.
+
+    The suite writes the vertices of the case's first successful rdmesh run to
+    ``points_file`` (see ``runner.Suite``); the reference program times
+    ``Delaunay_triangulation_3(begin, end)`` of them.
+    """
+
+    writes_mesh = False
+
+    def __init__(self, name: str, exe: Path | None) -> None:
+        super().__init__(name)
+        self.exe = exe
+
+    def check(self, args: argparse.Namespace, versions: dict) -> str | None:
+        if "rdmesh" not in args.meshers:
+            return "the floor triangulates rdmesh's vertices: add rdmesh to --meshers"
+        return None
+
+    def params(self, surface: str, size: int, cal: dict) -> dict[str, Any]:
+        return {"points_of": "rdmesh"}
+
+    def command(self, case: dict, args: argparse.Namespace, mesh_path: str | None) -> list[str]:
+        from cgal_runner import delaunay_command
+
+        points = case.get("points_file")
+        if not points or not Path(points).exists():
+            raise ValueError(
+                f"no rdmesh vertices for {case['surface']} at {fmt_size(case['size'])} "
+                "(the floor needs a successful rdmesh run of the same case first)"
+            )
+        return delaunay_command(self.exe, points)
+
+    def parse(self, res: dict, what: str, versions: dict) -> dict[str, Any]:
+        from cgal_runner import parse_reference_output
+
+        out = parse_reference_output(res["returncode"], res["stdout"], res["stderr"], what)
+        versions["cgal"] = out.get("cgal_version")
+        return {
+            "seconds": out["seconds"],
+            "vertices": out["vertices"],
+            "faces": 0,
+            "evaluations": 0,
+            "extra": {"points": out.get("points"), "cells": out.get("cells")},
+        }
+
+
 def _build_cgal(record: dict, log: Callable[[str], None]) -> tuple[Path | None, str | None]:
     """Build the CGAL reference: (executable, None) or (None, why not)."""
     from cgal_runner import CgalReferenceError, build_reference
@@ -408,7 +469,7 @@ def adapters(
     """An adapter for each mesher in ``names``, and which of them can run.
 
     Those that cannot go to ``record["unavailable"]`` with the reason (a CGAL
-    build failure marks both CGAL meshers).  Also records
+    build failure marks every requested CGAL mesher and the floor).  Also records
     ``cgal_build_seconds`` and the pygalmesh version.
     """
     unavailable = record["unavailable"]
@@ -419,15 +480,15 @@ def adapters(
         "marching_cubes": MarchingCubes,
     }
     out: dict[str, Mesher] = {m: kinds[m](m) for m in names if m in kinds}
-    if any(m in CGAL_MESHERS for m in names):
+    if any(m in CGAL_MESHERS or m == FLOOR for m in names):
         exe, why = _build_cgal(record, log)
-        for m in CGAL_MESHERS:
-            if why is not None:
+        for m in (*CGAL_MESHERS, FLOOR):
+            if why is not None and m in names:
                 unavailable[m] = why
             if m in names:
-                out[m] = Cgal(m, exe)
+                out[m] = DelaunayFloor(m, exe) if m == FLOOR else Cgal(m, exe)
     for m in MESHERS:
-        if m in kinds and m in names:
+        if (m in kinds or m == FLOOR) and m in names and m not in unavailable:
             why = out[m].check(args, record["versions"])
             if why is not None:
                 unavailable[m] = why

@@ -35,8 +35,10 @@ COLORS = {
     "rdmesh_certified": ("tab:cyan", "D"),
     "cgal_surface_mesher": ("tab:orange", "s"),
     "cgal_mesh_3": ("tab:green", "^"),
+    "cgal_mesh_3_fast": ("tab:olive", "<"),
     "pygalmesh": ("tab:red", "D"),
     "marching_cubes": ("tab:purple", "v"),
+    "cgal_delaunay_floor": ("black", "x"),  # no surface: time and memory only
 }
 
 _ANGLE_EDGES = np.linspace(0.0, 60.0, 121)
@@ -136,7 +138,8 @@ def _hausdorff(c: dict) -> float | None:
 
 
 def _angles(results: dict, path: Path) -> Path:
-    meshers = _meshers(results)
+    # The floor (a 3D triangulation of rdmesh's vertices) has no triangles.
+    meshers = [m for m in _meshers(results) if m != "cgal_delaunay_floor"]
     cases = _ok_cases(results)
     sizes = sorted({c["size"] for c in cases})
     cmap = plt.get_cmap("viridis")

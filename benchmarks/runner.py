@@ -20,7 +20,7 @@ from typing import Any
 import record
 from calibration import cached_calibration, calibration_target
 from measure import run_measured
-from meshers import Mesher, adapters
+from meshers import FLOOR, Mesher, adapters
 from quality import QualityMeter
 
 __all__ = ["Suite", "describe"]
@@ -118,11 +118,49 @@ class Suite:
                 return f"{c['status']} at size {record.fmt_size(c['size'])}"
         return None
 
+    def points_path(self, surface: str, size: int) -> Path:
+        """Where the floor finds rdmesh's vertices of a case."""
+        return self.tmp / f"{surface}-{size}-rdmesh-vertices.xyz"
+
+    def keep_points(self, cases: dict[str, dict], run: dict) -> None:
+        """Write the vertices of rdmesh's mesh for the floor (once per case)."""
+        floor = cases.get(FLOOR)
+        if floor is None or floor["status"] in ("skipped", "unavailable"):
+            return
+        if floor.get("points_file") or run["status"] != "ok" or not run.get("mesh_file"):
+            return
+        from cgal_runner import write_points
+        from meshfile import load_mesh
+        from metrics import compact
+
+        v, f = compact(*load_mesh(run["mesh_file"]))
+        path = self.points_path(floor["surface"], floor["size"])
+        write_points(path, v)
+        floor["points_file"] = str(path)
+
     def run_cases(self, cases: dict[str, dict]) -> None:
-        """The repeats of one surface and size, meshers alternating."""
+        """The repeats of one surface and size, meshers alternating.
+
+        The floor runs after rdmesh in the first repeat (it needs rdmesh's
+        vertices); from then on the order alternates as for the others.
+        """
+        args = self.args
+        first = list(args.meshers)
+        if FLOOR in first and "rdmesh" in first:
+            first.remove(FLOOR)
+            first.insert(first.index("rdmesh") + 1, FLOOR)
+        try:
+            self._run_repeats(cases, first)
+        finally:
+            floor = cases.get(FLOOR)
+            if floor is not None and floor.get("points_file"):
+                Path(floor.pop("points_file")).unlink(missing_ok=True)
+                self.save()
+
+    def _run_repeats(self, cases: dict[str, dict], first: list[str]) -> None:
         args = self.args
         for rep in range(args.repeats):
-            order = list(args.meshers) if rep % 2 == 0 else list(reversed(args.meshers))
+            order = first if rep % 2 == 0 else list(reversed(first))
             for mesher in order:
                 case = cases[mesher]
                 if case["status"] in ("skipped", "unavailable"):
@@ -131,8 +169,11 @@ class Suite:
                     continue
                 if any(r["status"] == "timeout" for r in case["runs"]):
                     continue  # do not spend another timeout on it
-                run = self.run_once(case, rep, keep_mesh=case["quality"] is None)
+                keep = case["quality"] is None and self.meshers[mesher].writes_mesh
+                run = self.run_once(case, rep, keep_mesh=keep)
                 case["runs"].append(run)
+                if mesher == "rdmesh":
+                    self.keep_points(cases, run)
                 self.log(describe(case, run))
                 if run["status"] == "ok" and case["quality"] is None and "mesh_file" in run:
                     try:
@@ -155,8 +196,12 @@ class Suite:
         if keep_mesh:
             mesh_path = str(self.tmp / f"{case['surface']}-{case['size']}-{m.name}{m.suffix}")
         timeout = m.timeout(self.args)
-        cmd = m.command(case, self.args, mesh_path)
         load = os.getloadavg()[0]
+        try:
+            cmd = m.command(case, self.args, mesh_path)
+        except ValueError as exc:
+            return {"repeat": repeat, "status": "failed", "error": str(exc),
+                    "process_seconds": 0.0, "peak_rss_mb": None, "loadavg": load}  # fmt: skip
         limit = self.args.memory_limit_gb * 1024 if self.args.memory_limit_gb else None
         res = run_measured(cmd, timeout, memory_limit_mb=limit)
         run: dict[str, Any] = {

@@ -13,8 +13,10 @@ writes ``<out>/<date>.json`` (all runs), ``<out>/<date>.md`` (the report) and
 This file is the command line only; the work is done by
 
 - ``meshers.py``: the meshers (rdmesh, the CGAL reference's Surface_mesher
-  and Mesh_3, pygalmesh, marching cubes): one adapter each, and the
-  child-process side that runs a Python mesher and prints one JSON line;
+  and Mesh_3 with and without ``manifold()``, pygalmesh, marching cubes, and
+  the floor: CGAL's bulk Delaunay build of rdmesh's vertices): one adapter
+  each, and the child-process side that runs a Python mesher and prints one
+  JSON line;
 - ``runner.py``: the run loop (cases, repeats, skipping, quality once per
   case, the JSON written after every run);
 - ``measure.py``: one run in a fresh process (wall time, peak RSS from

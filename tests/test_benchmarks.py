@@ -127,6 +127,13 @@ def test_json_schema(quick):
         (run,) = c["runs"]
         assert run["status"] == "ok" and run["error"] is None
         summ = c["summary"]
+        if c["mesher"] == meshers.FLOOR:
+            # The floor triangulates exactly rdmesh's vertices; no surface.
+            (rd,) = [d for d in cases if d["surface"] == c["surface"] and d["mesher"] == "rdmesh"]
+            assert summ["vertices"] == rd["summary"]["vertices"]
+            assert run["extra"]["points"] == summ["vertices"] and run["extra"]["cells"] > 0
+            assert summ["seconds"] > 0 and c["quality"] is None and "points_file" not in c
+            continue
         for key in ("seconds", "vertices", "faces", "vertices_per_second", "peak_rss_mb",
                     "evaluations", "process_seconds"):  # fmt: skip
             assert summ[key] > 0, (c["mesher"], key)
@@ -187,6 +194,11 @@ def test_report_and_plots(quick):
         assert heading in md
     for c in res["cases"]:
         assert f"| {c['surface']} | {record.fmt_size(quick.size)} | {c['mesher']} |" in md
+    assert "## Time ratios" in md and "rdmesh ÷ marching cubes" in md
+    if any(c["mesher"] == "cgal_mesh_3_fast" and c["status"] == "ok" for c in res["cases"]):
+        assert "rdmesh ÷ Mesh_3 (no manifold)" in md and "rdmesh ÷ Mesh_3 (manifold)" in md
+    if any(c["mesher"] == meshers.FLOOR and c["status"] == "ok" for c in res["cases"]):
+        assert "rdmesh ÷ floor" in md
     for why in res["unavailable"].values():
         assert why.split(" (")[0] in md
     for name in ("time", "memory", "hausdorff", "angles"):
@@ -474,6 +486,8 @@ def test_targets():
             _case("cgal_mesh_3", 10_000, 1.0, 50),
             _case("rdmesh", 100_000, 10.0, 500),
             _case("cgal_mesh_3", 100_000, 25.0, 400),
+            _case("cgal_mesh_3_fast", 100_000, 16.0, 600),
+            _case("cgal_delaunay_floor", 100_000, 2.0, 100),
             _case("pygalmesh", 100_000, 2000.0, 300),
             _case("rdmesh", 1_000_000, 100.0, 5000),
             _case("cgal_mesh_3", 1_000_000, 150.0, 30_000),
@@ -482,13 +496,24 @@ def test_targets():
     }
     got = {(t["size"], t["target"]): t for t in report.targets(res)}
     assert all(size >= 100_000 for size, _ in got)
-    t = got[(100_000, "rdmesh time <= 0.5 x make_mesh_3")]
+    t = got[(100_000, "rdmesh time <= 0.5 x Mesh_3 (manifold)")]
     assert t["value"] == pytest.approx(0.4) and t["passed"] is True
-    t = got[(100_000, "rdmesh peak RSS <= make_mesh_3")]
+    t = got[(100_000, "rdmesh peak RSS <= Mesh_3 (manifold)")]
     assert t["value"] == pytest.approx(1.25) and t["passed"] is False
+    t = got[(100_000, "rdmesh time <= 0.5 x Mesh_3 (no manifold)")]
+    assert t["value"] == pytest.approx(0.625) and t["passed"] is False
+    t = got[(100_000, "rdmesh peak RSS <= Mesh_3 (no manifold)")]
+    assert t["passed"] is True
+    t = got[(100_000, "rdmesh time <= 3 x floor")]
+    assert t["value"] == pytest.approx(5.0) and t["passed"] is False
+    # The headline: rdmesh over the faster Mesh_3 setting, named.
+    (h,) = [h for h in report.headline(res) if h["size"] == 100_000]
+    assert h["setting"] == "cgal_mesh_3_fast" and h["ratio"] == pytest.approx(0.625)
+    md = report.ratio_table(res)
+    assert "rdmesh ÷ Mesh_3 (no manifold)" in md and "5x" in md
     t = got[(100_000, "rdmesh >= 100 x faster than pygalmesh")]
     assert t["value"] == pytest.approx(200) and t["passed"] is True
-    t = got[(1_000_000, "rdmesh time <= 0.5 x make_mesh_3")]
+    t = got[(1_000_000, "rdmesh time <= 0.5 x Mesh_3 (manifold)")]
     assert t["passed"] is False
     t = got[(1_000_000, "rdmesh >= 100 x faster than pygalmesh")]
     assert t["passed"] is None and "> 36" in t["note"]  # 3600 s / 100 s

@@ -2,7 +2,8 @@
 //
 // Meshes one of the benchmark implicit surfaces f(x,y,z) = 0 (f < 0 inside)
 // with either CGAL's Surface_mesher (make_surface_mesh) or Mesh_3
-// (make_mesh_3, facet criteria only) and prints one JSON object on stdout:
+// (make_mesh_3, facet criteria only; "mesh_3" with params::manifold(),
+// "mesh_3_fast" without it) and prints one JSON object on stdout:
 //
 //   {"mesher": ..., "surface": ..., "seconds": ..., "vertices": ...,
 //    "faces": ..., "evaluations": ..., "cgal_version": ..., ...}
@@ -14,9 +15,16 @@
 // that call.
 //
 // Usage:
-//   cgal_reference --mesher surface_mesher|mesh_3 --surface NAME
+//   cgal_reference --mesher surface_mesher|mesh_3|mesh_3_fast --surface NAME
 //                  --angle A --radius R --distance D
 //                  [--error-bound E] [--seed S] [--out mesh.off]
+//   cgal_reference --mesher delaunay --points FILE
+//
+// The "delaunay" mode is the floor of the benchmarks: it reads points (x y z
+// per line, whitespace-separated) and times CGAL's bulk build
+// Delaunay_triangulation_3(begin, end) of them (spatial sort + insertion),
+// with "seconds", "vertices" (of the triangulation), "points" (read) and
+// "cells" (finite cells) in its JSON line.
 //
 // Exit codes: 0 success, 2 invalid command line, 1 any other failure
 // (CGAL exception, output file not writable, ...).
@@ -45,6 +53,9 @@
 #include <CGAL/Mesh_triangulation_3.h>
 #include <CGAL/facets_in_complex_3_to_triangle_mesh.h>
 #include <CGAL/make_mesh_3.h>
+
+// The floor: a bulk 3D Delaunay triangulation
+#include <CGAL/Delaunay_triangulation_3.h>
 
 #include <algorithm>
 #include <array>
@@ -204,12 +215,17 @@ struct Options {
   double error_bound = kDefaultErrorBound;
   unsigned int seed = 0;
   std::string out;
+  std::string points;  // --points (mesher "delaunay")
 };
 
 const char* const kUsage =
-    "usage: cgal_reference --mesher surface_mesher|mesh_3 --surface NAME\n"
+    "usage: cgal_reference --mesher surface_mesher|mesh_3|mesh_3_fast --surface NAME\n"
     "                      --angle A --radius R --distance D\n"
     "                      [--error-bound E] [--seed S] [--out mesh.off]\n"
+    "       cgal_reference --mesher delaunay --points FILE\n"
+    "  mesh_3: make_mesh_3 with params::manifold(); mesh_3_fast: without it\n"
+    "  delaunay: time Delaunay_triangulation_3(begin, end) of the points of FILE\n"
+    "            (x y z per line)\n"
     "  NAME: sphere ellipsoid torus thin_torus double_torus tanglecube\n"
     "        two_spheres blob_line\n"
     "  A: minimum facet angle bound in degrees, 0 < A < 90 (CGAL guarantees\n"
@@ -262,7 +278,8 @@ Options parse_args(int argc, char** argv) {
     }
     if (arg == "-h" || arg == "--help") throw Usage_error{""};
     static const char* const known[] = {"--mesher", "--surface",     "--angle", "--radius",
-                                        "--distance", "--error-bound", "--seed", "--out"};
+                                        "--distance", "--error-bound", "--seed", "--out",
+                                        "--points"};
     bool is_known = false;
     for (const char* k : known) is_known = is_known || arg == k;
     if (!is_known) throw Usage_error{"unknown argument: '" + std::string(argv[i]) + "'"};
@@ -271,8 +288,10 @@ Options parse_args(int argc, char** argv) {
       value = argv[++i];
     }
     if (arg == "--mesher") {
-      if (value != "surface_mesher" && value != "mesh_3")
-        throw Usage_error{"unknown mesher '" + value + "' (surface_mesher or mesh_3)"};
+      if (value != "surface_mesher" && value != "mesh_3" && value != "mesh_3_fast" &&
+          value != "delaunay")
+        throw Usage_error{"unknown mesher '" + value +
+                          "' (surface_mesher, mesh_3, mesh_3_fast or delaunay)"};
       o.mesher = value;
     } else if (arg == "--surface") {
       if (surfaces().count(value) == 0) throw Usage_error{"unknown surface '" + value + "'"};
@@ -299,9 +318,17 @@ Options parse_args(int argc, char** argv) {
     } else if (arg == "--out") {
       if (value.empty()) throw Usage_error{"--out needs a file name"};
       o.out = value;
+    } else if (arg == "--points") {
+      if (value.empty()) throw Usage_error{"--points needs a file name"};
+      o.points = value;
     }
   }
   if (o.mesher.empty()) throw Usage_error{"--mesher is required"};
+  if (o.mesher == "delaunay") {
+    if (o.points.empty()) throw Usage_error{"--mesher delaunay needs --points FILE"};
+    return o;
+  }
+  if (!o.points.empty()) throw Usage_error{"--points is only for --mesher delaunay"};
   if (o.surface.empty()) throw Usage_error{"--surface is required"};
   if (!have_angle) throw Usage_error{"--angle is required"};
   if (!have_radius) throw Usage_error{"--radius is required"};
@@ -366,7 +393,8 @@ double run_surface_mesher(const Options& o, const Surface_entry& s, Mesh& mesh) 
   return std::chrono::duration<double>(t1 - t0).count();
 }
 
-double run_mesh_3(const Options& o, const Surface_entry& s, Mesh& mesh, CGAL::Random& rng) {
+double run_mesh_3(const Options& o, const Surface_entry& s, Mesh& mesh, CGAL::Random& rng,
+                  bool manifold) {
   using Mesh_domain = CGAL::Labeled_mesh_domain_3<K>;
   using Tr = CGAL::Mesh_triangulation_3<Mesh_domain, CGAL::Default, CGAL::Sequential_tag>::type;
   using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr>;
@@ -389,12 +417,55 @@ double run_mesh_3(const Options& o, const Surface_entry& s, Mesh& mesh, CGAL::Ra
 
   g_evaluations = 0;
   const auto t0 = std::chrono::steady_clock::now();
-  C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria, params::no_perturb(), params::no_exude(),
-                                      params::manifold());
+  // "mesh_3" asks for a manifold surface (params::manifold()); "mesh_3_fast"
+  // leaves Mesh_3's default (no manifold criterion), which is faster and on
+  // these smooth closed surfaces still gives closed manifolds (checked by
+  // the suite's quality step).
+  C3t3 c3t3 = manifold ? CGAL::make_mesh_3<C3t3>(domain, criteria, params::no_perturb(),
+                                                 params::no_exude(), params::manifold())
+                       : CGAL::make_mesh_3<C3t3>(domain, criteria, params::no_perturb(),
+                                                 params::no_exude());
   const auto t1 = std::chrono::steady_clock::now();
 
   CGAL::facets_in_complex_3_to_triangle_mesh(c3t3, mesh);
   return std::chrono::duration<double>(t1 - t0).count();
+}
+
+// ---------------------------------------------------------------------------
+// The floor: CGAL's bulk Delaunay triangulation of given points
+// ---------------------------------------------------------------------------
+
+struct Input_error {
+  std::string message;
+};
+
+// Points of a text file, x y z per point, whitespace-separated.
+std::vector<Point_3> read_points(const std::string& path) {
+  std::ifstream is(path);
+  if (!is) throw Input_error{"cannot open points file '" + path + "'"};
+  std::vector<double> xyz;
+  std::string token;
+  while (is >> token) {
+    const char* s = token.c_str();
+    char* end = nullptr;
+    errno = 0;
+    const double v = std::strtod(s, &end);
+    if (end == s || *end != '\0' || errno == ERANGE || !std::isfinite(v))
+      throw Input_error{"'" + path + "': not a finite number: '" + token + "' (number " +
+                        std::to_string(xyz.size() + 1) + ")"};
+    xyz.push_back(v);
+  }
+  if (is.bad()) throw Input_error{"cannot read points file '" + path + "'"};
+  if (xyz.size() % 3 != 0)
+    throw Input_error{"'" + path + "': " + std::to_string(xyz.size()) +
+                      " numbers, not a multiple of 3 (x y z per point)"};
+  if (xyz.size() < 12)
+    throw Input_error{"'" + path + "': fewer than 4 points (" + std::to_string(xyz.size() / 3) +
+                      ")"};
+  std::vector<Point_3> pts;
+  pts.reserve(xyz.size() / 3);
+  for (std::size_t i = 0; i < xyz.size(); i += 3) pts.emplace_back(xyz[i], xyz[i + 1], xyz[i + 2]);
+  return pts;
 }
 
 // Shortest text that reads back as the same double.
@@ -420,6 +491,39 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  if (o.mesher == "delaunay") {
+    try {
+      const std::vector<Point_3> pts = read_points(o.points);
+      using Dt = CGAL::Delaunay_triangulation_3<K>;
+      const auto t0 = std::chrono::steady_clock::now();
+      Dt dt(pts.begin(), pts.end());
+      const auto t1 = std::chrono::steady_clock::now();
+      const double seconds = std::chrono::duration<double>(t1 - t0).count();
+      if (dt.dimension() != 3) {
+        std::cerr << "cgal_reference: the points of '" << o.points
+                  << "' span dimension " << dt.dimension() << ", not 3\n";
+        return 1;
+      }
+      std::cout << "{\"mesher\": \"delaunay\", \"surface\": null"
+                << ", \"seconds\": " << json_double(seconds)
+                << ", \"vertices\": " << dt.number_of_vertices()
+                << ", \"faces\": 0, \"evaluations\": 0"
+                << ", \"points\": " << pts.size()
+                << ", \"cells\": " << dt.number_of_finite_cells()
+                << ", \"cgal_version\": \"" << CGAL_VERSION_STR << "\"}" << std::endl;
+      return 0;
+    } catch (const Input_error& e) {
+      std::cerr << "cgal_reference: " << e.message << "\n";
+      return 1;
+    } catch (const std::exception& e) {
+      std::cerr << "cgal_reference: Delaunay triangulation failed: " << e.what() << "\n";
+      return 1;
+    } catch (...) {
+      std::cerr << "cgal_reference: Delaunay triangulation failed with an unknown exception\n";
+      return 1;
+    }
+  }
+
   try {
     const Surface_entry& s = surfaces().at(o.surface);
     const std::string bad = check_bounding_sphere(s);
@@ -436,7 +540,8 @@ int main(int argc, char** argv) {
 
     Mesh mesh;
     const double seconds = (o.mesher == "surface_mesher") ? run_surface_mesher(o, s, mesh)
-                                                          : run_mesh_3(o, s, mesh, mesh_3_rng);
+                                                          : run_mesh_3(o, s, mesh, mesh_3_rng,
+                                                                       o.mesher == "mesh_3");
     const std::uint64_t evaluations = g_evaluations;
 
     // Sanity information on the output surface (not timed).
