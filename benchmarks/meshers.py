@@ -71,19 +71,20 @@ def _maxrss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def child_rdmesh(spec: dict) -> dict:
+def _run_rdmesh(spec: dict, surface, **options) -> dict:
+    """One timed rdmesh run of ``surface`` with the spec's criteria."""
     import numpy as np
     import rdmesh
 
-    s = rdmesh.surfaces.get(spec["surface"])
     base = _maxrss_mb()
     t0 = time.perf_counter()
     m = rdmesh.mesh_surface(
-        s,
+        surface,
         angle_bound=spec["angle"],
         radius_bound=spec["radius"],
         distance_bound=spec["distance"],
         seed=spec["seed"],
+        **options,
     )
     seconds = time.perf_counter() - t0
     save_mesh(spec.get("out"), m.vertices, m.faces)
@@ -97,15 +98,22 @@ def child_rdmesh(spec: dict) -> dict:
             "rounds": m.stats.get("rounds"),
             "stats_seconds": m.stats.get("seconds"),
             "phase_seconds": m.stats.get("phase_seconds"),
+            "interval_evaluations": m.stats.get("interval_evaluations"),
+            "certified": bool(m.topology_certified),
             "complete": bool(m.complete),
         },
     }
 
 
+def child_rdmesh(spec: dict) -> dict:
+    import rdmesh
+
+    return _run_rdmesh(spec, rdmesh.surfaces.get(spec["surface"]))
+
+
 def child_rdmesh_certified(spec: dict) -> dict:
     """rdmesh in certify mode: the surface as an expression, the topological-ball
     method with the same criteria, every test proven by interval arithmetic."""
-    import numpy as np
     import rdmesh
     from rdmesh.surfaces.builtin import BUILTIN_EXPRESSIONS
 
@@ -113,33 +121,7 @@ def child_rdmesh_certified(spec: dict) -> dict:
     s = rdmesh.ImplicitSurface.from_expression(
         BUILTIN_EXPRESSIONS[spec["surface"]], made.bounding_sphere
     )
-    base = _maxrss_mb()
-    t0 = time.perf_counter()
-    m = rdmesh.mesh_surface(
-        s,
-        angle_bound=spec["angle"],
-        radius_bound=spec["radius"],
-        distance_bound=spec["distance"],
-        seed=spec["seed"],
-        method="topological-ball",
-        certify=True,
-    )
-    seconds = time.perf_counter() - t0
-    save_mesh(spec.get("out"), m.vertices, m.faces)
-    return {
-        "seconds": seconds,
-        "vertices": int(len(np.unique(m.faces))),
-        "faces": int(len(m.faces)),
-        "evaluations": int(m.stats.get("evaluations", 0)),
-        "baseline_rss_mb": base,
-        "extra": {
-            "rounds": m.stats.get("rounds"),
-            "interval_evaluations": m.stats.get("interval_evaluations"),
-            "certified": bool(m.topology_certified),
-            "phase_seconds": m.stats.get("phase_seconds"),
-            "complete": bool(m.complete),
-        },
-    }
+    return _run_rdmesh(spec, s, method="topological-ball", certify=True)
 
 
 def child_pygalmesh(spec: dict) -> dict:

@@ -1,4 +1,5 @@
-"""Scale-safe row norms: no squaring, so no overflow or underflow at extreme scales."""
+"""Row-wise array helpers: scale-safe norms (no squaring, so no overflow or
+underflow at extreme scales) and the lookup of integer rows in a table."""
 
 from __future__ import annotations
 
@@ -18,3 +19,13 @@ def unit_rows(v: np.ndarray) -> np.ndarray:
     out = np.zeros_like(v, dtype=np.float64)
     out[ok] = v[ok] / n[ok, None]
     return out
+
+
+def row_index(rows: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """Index in ``table`` of each of ``rows`` (rows of integers), -1 where absent."""
+    both = np.concatenate([table, rows]).astype(np.int64)
+    _, inv = np.unique(both, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    pos = np.full(inv.max() + 1 if len(inv) else 0, -1, np.int64)
+    pos[inv[: len(table)]] = np.arange(len(table))
+    return pos[inv[len(table) :]]

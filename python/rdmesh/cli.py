@@ -184,55 +184,7 @@ def _parser() -> argparse.ArgumentParser:
         metavar="CX,CY,CZ,R",
         help="bounding sphere (write --sphere=-1,0,0,2 if CX is negative)",
     )
-    mesh.add_argument(
-        "--angle",
-        type=_angle,
-        default=30.0,
-        metavar="A",
-        help="smallest angle in degrees, at most 30 (default 30; 0 = off)",
-    )
-    mesh.add_argument(
-        "--radius",
-        type=_positive_float,
-        metavar="R",
-        help="largest surface Delaunay ball radius (default bound/20)",
-    )
-    mesh.add_argument(
-        "--distance",
-        type=_positive_float,
-        metavar="D",
-        help="largest centre-to-surface distance (default off)",
-    )
-    mesh.add_argument(
-        "--method", default="boissonnat-oudot", choices=METHODS, help="refinement algorithm"
-    )
-    mesh.add_argument(
-        "--topology",
-        default="manifold",
-        choices=TOPOLOGIES,
-        help="what the last stage repairs, as CGAL's tags (default manifold)",
-    )
-    mesh.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    mesh.add_argument(
-        "--workers",
-        type=_positive_int,
-        default=1,
-        metavar="N",
-        help="threads evaluating the surface at once (default 1)",
-    )
-    mesh.add_argument(
-        "--max-vertices",
-        type=_positive_int,
-        metavar="N",
-        help="stop at N vertices; the partial mesh is written, exit status 1",
-    )
-    mesh.add_argument(
-        "--time-limit",
-        type=_positive_float,
-        metavar="SECONDS",
-        help="stop after about this long; partial mesh written, exit status 1",
-    )
-    mesh.add_argument("--png", metavar="PNG", help="also write a shaded picture")
+    _add_run_options(mesh, method=True)
     _add_volume_options(mesh)
     _add_output_options(mesh)
 
@@ -259,6 +211,77 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _add_run_options(p: argparse.ArgumentParser, method: bool) -> None:
+    """The criteria, method, budgets and picture options that ``mesh`` and ``remesh`` share."""
+    p.add_argument(
+        "--angle",
+        type=_angle,
+        default=30.0,
+        metavar="A",
+        help="smallest angle in degrees, at most 30 (default 30; 0 = off)",
+    )
+    p.add_argument(
+        "--radius",
+        type=_positive_float,
+        metavar="R",
+        help="largest surface Delaunay ball radius (default: bounding radius / 20)",
+    )
+    p.add_argument(
+        "--distance",
+        type=_positive_float,
+        metavar="D",
+        help="largest centre-to-surface distance (default off)",
+    )
+    if method:
+        p.add_argument(
+            "--method", default="boissonnat-oudot", choices=METHODS, help="refinement algorithm"
+        )
+    p.add_argument(
+        "--topology",
+        default="manifold",
+        choices=TOPOLOGIES,
+        help="what the last stage repairs, as CGAL's tags (default manifold)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=1,
+        metavar="N",
+        help="threads evaluating the surface at once (default 1)",
+    )
+    p.add_argument(
+        "--max-vertices",
+        type=_positive_int,
+        metavar="N",
+        help="stop at N vertices; the partial mesh is written, exit status 1",
+    )
+    p.add_argument(
+        "--time-limit",
+        type=_positive_float,
+        metavar="SECONDS",
+        help="stop after about this long; partial mesh written, exit status 1",
+    )
+    p.add_argument("--png", metavar="PNG", help="also write a shaded picture")
+
+
+def _run_options(args) -> dict:
+    """``mesh_surface``'s keyword arguments from :func:`_add_run_options`' options."""
+    out = dict(
+        angle_bound=args.angle,
+        radius_bound=args.radius,
+        distance_bound=args.distance,
+        topology=args.topology,
+        seed=args.seed,
+        max_vertices=args.max_vertices,
+        time_limit=args.time_limit,
+        workers=args.workers,
+    )
+    if hasattr(args, "method"):
+        out["method"] = args.method
+    return out
+
+
 # -- remesh: triangle meshes (MeshSurface) ----------------------------------------------
 
 
@@ -283,52 +306,7 @@ def _add_remesh_parser(sub) -> None:
         metavar="OUT",
         help=f"mesh file; format by extension: {' '.join(MESH_FORMATS)}",
     )
-    rm.add_argument(
-        "--angle",
-        type=_angle,
-        default=30.0,
-        metavar="A",
-        help="smallest angle in degrees, at most 30 (default 30; 0 = off)",
-    )
-    rm.add_argument(
-        "--radius",
-        type=_positive_float,
-        metavar="R",
-        help="largest surface Delaunay ball radius (default: bounding radius / 20)",
-    )
-    rm.add_argument(
-        "--distance",
-        type=_positive_float,
-        metavar="D",
-        help="largest centre-to-surface distance (default off)",
-    )
-    rm.add_argument(
-        "--topology",
-        default="manifold",
-        choices=TOPOLOGIES,
-        help="what the last stage repairs, as CGAL's tags (default manifold)",
-    )
-    rm.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    rm.add_argument(
-        "--workers",
-        type=_positive_int,
-        default=1,
-        metavar="N",
-        help="threads evaluating the distance at once (default 1)",
-    )
-    rm.add_argument(
-        "--max-vertices",
-        type=_positive_int,
-        metavar="N",
-        help="stop at N vertices; the partial mesh is written, exit status 1",
-    )
-    rm.add_argument(
-        "--time-limit",
-        type=_positive_float,
-        metavar="SECONDS",
-        help="stop after about this long; partial mesh written, exit status 1",
-    )
-    rm.add_argument("--png", metavar="PNG", help="also write a shaded picture")
+    _add_run_options(rm, method=False)
     _add_output_options(rm)
     rm.set_defaults(run=_remesh)
 
@@ -346,18 +324,7 @@ def _remesh(args) -> int:
     except Exception as exc:  # noqa: BLE001 - trimesh's loaders raise many types
         raise _CliError(f"cannot read {path!r} as a mesh: {_one_line(exc)}") from None
     surface = MeshSurface(loaded, name=os.path.basename(path))
-    return _run(
-        args,
-        surface,
-        angle_bound=args.angle,
-        radius_bound=args.radius,
-        distance_bound=args.distance,
-        topology=args.topology,
-        seed=args.seed,
-        max_vertices=args.max_vertices,
-        time_limit=args.time_limit,
-        workers=args.workers,
-    )
+    return _run(args, surface, **_run_options(args))
 
 
 # -- running --------------------------------------------------------------------------
@@ -572,19 +539,7 @@ def main(argv: list[str] | None = None) -> int:
                 BUILTIN_EXPRESSIONS[key], made.bounding_sphere, name=made.name
             )
             return _run(args, surface, radius_bound=made.radius / 40, method="topological-ball")
-        return _run(
-            args,
-            _surface(args),
-            angle_bound=args.angle,
-            radius_bound=args.radius,
-            distance_bound=args.distance,
-            topology=args.topology,
-            method=args.method,
-            seed=args.seed,
-            max_vertices=args.max_vertices,
-            time_limit=args.time_limit,
-            workers=args.workers,
-        )
+        return _run(args, _surface(args), **_run_options(args))
     except KeyboardInterrupt:
         print("rdmesh: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -25,6 +25,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull, cKDTree
 
+from .._newton import damped_step
 from .._vectors import row_norms
 from ..surfaces.oracle import ImplicitSurface
 from .grid import fibonacci_sphere
@@ -348,10 +349,8 @@ def project_onto_curve(surface: ImplicitSurface, x: np.ndarray) -> np.ndarray:
         moving = gn2 > 0
         step = np.zeros_like(x)
         step[moving] = -(f[moving] / gn2[moving])[:, None] * gt[moving]
-        step_len = row_norms(step)
-        cap = 0.05 * R
-        step *= np.minimum(1.0, cap / np.maximum(step_len, 1e-300))[:, None]
-        x = onto_sphere(x + step)
+        x, step_len = damped_step(x, step, 0.05 * R)
+        x = onto_sphere(x)
         if np.all(step_len < 1e-13 * R):
             break
     return x

@@ -23,11 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..surfaces.expressions import Expression
+from ..surfaces.intervals import dot_bounds
 
 #: Pieces kept at one level at most (bounds the memory of a call).
 MAX_PIECES = 1 << 21
-_EPS = np.finfo(np.float64).eps
-_TINY = np.finfo(np.float64).tiny
 
 
 @dataclass
@@ -94,7 +93,7 @@ def isolate_roots(expr: Expression, a: np.ndarray, b: np.ndarray, min_length: fl
         enc = expr.interval_gradient(np.minimum(p0, p1), np.maximum(p0, p1), mean_value=True)
         boxes += len(seg)
         has0 = (enc.lo <= 0) & (enc.hi >= 0)
-        dlo, dhi = _dot(enc.glo, enc.ghi, d[seg])
+        dlo, dhi = dot_bounds(enc.glo, enc.ghi, d[seg])
         mono = has0 & ~enc.undefined & ((dlo > 0) | (dhi < 0))
         # The ends of monotone pieces: their signs decide.
         ends = np.concatenate([p0[mono], p1[mono]])
@@ -128,26 +127,6 @@ def isolate_roots(expr: Expression, a: np.ndarray, b: np.ndarray, min_length: fl
     resolved = np.ones(n, bool)
     resolved[ps] = False
     return Isolation(fs[order], flo[order], fhi[order], count, resolved, ps, plo, phi, boxes)
-
-
-def _dot(glo: np.ndarray, ghi: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Outward-rounded bounds of ``G . d`` for gradient boxes ``G`` and vectors ``d``.
-
-    Components with ``d == 0`` add nothing; non-finite bounds elsewhere give
-    an unbounded result.
-    """
-    with np.errstate(invalid="ignore"):  # inf * 0 where d == 0: replaced below
-        p1, p2 = glo * d, ghi * d
-    zero = d == 0
-    lo = np.where(zero, 0.0, np.minimum(p1, p2))
-    hi = np.where(zero, 0.0, np.maximum(p1, p2))
-    bad = ~(np.isfinite(lo) & np.isfinite(hi)).all(axis=1)
-    s_lo, s_hi = lo.sum(axis=1), hi.sum(axis=1)
-    # Three products and two sums: a few ulps of the magnitudes.
-    slack = 8 * _EPS * np.maximum(np.abs(lo), np.abs(hi)).sum(axis=1) + _TINY
-    s_lo = np.where(bad, -np.inf, s_lo - slack)
-    s_hi = np.where(bad, np.inf, s_hi + slack)
-    return s_lo, s_hi
 
 
 def _sign(lo: np.ndarray, hi: np.ndarray, undefined: np.ndarray) -> np.ndarray:

@@ -81,6 +81,7 @@ from .expressions import (
 
 __all__ = [
     "REL_WIDENING",
+    "dot_bounds",
     "Enclosure",
     "GradientEnclosure",
     "interval",
@@ -821,6 +822,26 @@ def _mean_value(expr: Expression, lo, hi, flo, fhi, glo, ghi, undefined):
     out_lo = np.where(ok, np.maximum(flo, total.lo), flo)
     out_hi = np.where(ok, np.minimum(fhi, total.hi), fhi)
     return out_lo, out_hi
+
+
+def dot_bounds(glo: np.ndarray, ghi: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Outward-rounded bounds of ``G . d`` for gradient boxes ``G`` and vectors ``d``.
+
+    Components with ``d == 0`` add nothing; non-finite bounds elsewhere give
+    an unbounded result.
+    """
+    with np.errstate(invalid="ignore"):  # inf * 0 where d == 0: replaced below
+        p1, p2 = glo * d, ghi * d
+    zero = d == 0
+    lo = np.where(zero, 0.0, np.minimum(p1, p2))
+    hi = np.where(zero, 0.0, np.maximum(p1, p2))
+    bad = ~(np.isfinite(lo) & np.isfinite(hi)).all(axis=1)
+    s_lo, s_hi = lo.sum(axis=1), hi.sum(axis=1)
+    # Three products and two sums: a few ulps of the magnitudes.
+    slack = 8 * np.finfo(np.float64).eps * np.maximum(np.abs(lo), np.abs(hi)).sum(axis=1) + _TINY
+    s_lo = np.where(bad, -np.inf, s_lo - slack)
+    s_hi = np.where(bad, np.inf, s_hi + slack)
+    return s_lo, s_hi
 
 
 def interval(

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._tol import PROOF_FLOOR, ROOT_ATOL
-from .._vectors import row_norms
+from .._vectors import row_index, row_norms
 from ..sampling.isolate import isolate_roots
 from ..sampling.roots import refine_brackets
 from ..surfaces.expressions import Expression
@@ -59,7 +59,7 @@ def proven_edge_test(
     a, b = seg[:, 0], seg[:, 1]
     iso = isolate_roots(expr, a, b, PROOF_FLOOR * R)
     # Position of each facet among the restricted ones, -1 if not restricted.
-    where = _match(all_tri, np.sort(tri, axis=1))
+    where = row_index(all_tri, np.sort(tri, axis=1))
     restricted = where >= 0
     count, ok = iso.count, iso.resolved
     multi = ok & (count >= 2)
@@ -86,13 +86,3 @@ def proven_edge_test(
     stuck = a[iso.pending_segment] + mid[:, None] * (b - a)[iso.pending_segment]
     n_bad = int((multi | missed | false).sum()) + int((~ok).sum())
     return Violations("proven_voronoi_edge", n_bad, centre, rad, stuck)
-
-
-def _match(rows: np.ndarray, table: np.ndarray) -> np.ndarray:
-    """Index of each row of ``rows`` in ``table`` (rows of ints), -1 where absent."""
-    both = np.concatenate([table, rows]).astype(np.int64)
-    _, inv = np.unique(both, axis=0, return_inverse=True)
-    inv = inv.ravel()
-    pos = np.full(inv.max() + 1 if len(inv) else 0, -1, np.int64)
-    pos[inv[: len(table)]] = np.arange(len(table))
-    return pos[inv[len(table) :]]

@@ -40,9 +40,9 @@ import numpy as np
 
 from .._newton import damped_step
 from .._tol import ON_SURFACE, PROOF_BOX_FLOOR, PROOF_BOX_RELATIVE, TINY
-from .._vectors import row_norms
-from ..sampling.isolate import _dot
+from .._vectors import row_index, row_norms
 from ..surfaces.expressions import Expression
+from ..surfaces.intervals import dot_bounds
 from ..surfaces.oracle import ImplicitSurface
 from .tests import Violations
 
@@ -158,7 +158,7 @@ def proven_loop_test(
         direction[rows[ok]] = across[ok] / row_norms(across[ok])[:, None]
 
     def settled(glo, ghi, k):
-        dlo, dhi = _dot(glo, ghi, direction[k])
+        dlo, dhi = dot_bounds(glo, ghi, direction[k])
         return (dlo > 0) | (dhi < 0)
 
     keys = _edge_keys(e)
@@ -205,7 +205,7 @@ def proven_silhouette_test(
         return ~_outside_cell(blo, bhi, k, vertices, geometry)
 
     def settled(glo, ghi, k):
-        dlo, dhi = _dot(glo, ghi, normals[k])
+        dlo, dhi = dot_bounds(glo, ghi, normals[k])
         return (dlo > 0) | (dhi < 0)
 
     out = _prove(
@@ -302,19 +302,9 @@ def _chords(edges: np.ndarray, tri: np.ndarray, centres: np.ndarray):
     two = np.flatnonzero(cnt == 2)
     a = centres[owner[order[first[two]]]]
     b = centres[owner[order[first[two] + 1]]]
-    rows = _rows_of(edges, key[two])
+    rows = row_index(key[two], edges)
     ok = rows >= 0
     return rows[ok], (b - a)[ok]
-
-
-def _rows_of(table: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """Index in ``table`` of each of ``rows`` (sorted int pairs), -1 where absent."""
-    both = np.concatenate([table, rows]).astype(np.int64)
-    _, inv = np.unique(both, axis=0, return_inverse=True)
-    inv = inv.ravel()
-    pos = np.full(inv.max() + 1 if len(inv) else 0, -1, np.int64)
-    pos[inv[: len(table)]] = np.arange(len(table))
-    return pos[inv[len(table) :]]
 
 
 def _in_plane_direction(surface, lo, hi, mid, normal) -> np.ndarray:
