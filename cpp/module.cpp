@@ -3,6 +3,7 @@
 #include <pybind11/gil_safe_call_once.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 
 #include <CGAL/assertions_behaviour.h>
 #include <CGAL/exceptions.h>
@@ -11,6 +12,7 @@
 #include <cmath>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -20,6 +22,7 @@
 
 #include "mesh_distance.hpp"
 #include "rdt.hpp"
+#include "sample_scan.hpp"
 
 namespace py = pybind11;
 using rdmesh::RestrictedDelaunay;
@@ -175,6 +178,55 @@ PYBIND11_MODULE(_rdt, m) {
       "circumcentre / rho), clamped to [min_intervals, max_intervals] intervals: "
       "((k+1,) offsets, (P,) distances from each start, (P - 2k, 3) interior "
       "points).");
+
+  m.def(
+      "scan_samples",
+      [](const IdArray& offsets, const InArray& s, const InArray& values,
+         std::optional<InArray> ends, double dip_fraction) {
+        if (offsets.ndim() != 1 || offsets.shape(0) < 1)
+          throw std::invalid_argument("offsets must have shape (k + 1,)");
+        if (s.ndim() != 1 || values.ndim() != 1)
+          throw std::invalid_argument("s and values must be 1-D");
+        const std::vector<std::int64_t> off = copy_of<std::int64_t>(offsets);
+        const std::size_t k = off.size() - 1;
+        if (off[0] != 0 || off[k] != s.shape(0))
+          throw std::invalid_argument("offsets must run from 0 to len(s)");
+        for (std::size_t i = 0; i < k; ++i)
+          if (off[i + 1] - off[i] < 2)
+            throw std::invalid_argument("every segment needs at least its two ends");
+        const py::ssize_t want = ends ? s.shape(0) - 2 * static_cast<py::ssize_t>(k) : s.shape(0);
+        if (values.shape(0) != want)
+          throw std::invalid_argument("values must have one entry per sample (per interior "
+                                      "sample when ends are given)");
+        if (ends && (ends->ndim() != 2 || ends->shape(0) != static_cast<py::ssize_t>(k) ||
+                     ends->shape(1) != 2))
+          throw std::invalid_argument("ends must have shape (k, 2)");
+        const std::vector<double> S = copy_of<double>(s), V = copy_of<double>(values);
+        const std::vector<double> E = ends ? copy_of<double>(*ends) : std::vector<double>();
+        rdmesh::SampleScan r;
+        {
+          py::gil_scoped_release release;
+          r = rdmesh::scan_samples(off.data(), k, S.data(), V.data(),
+                                   ends ? E.data() : nullptr, dip_fraction);
+        }
+        auto n = [](const auto& v) { return std::vector<py::ssize_t>{static_cast<py::ssize_t>(v.size())}; };
+        auto sign = py::make_tuple(to_numpy(r.seg, n(r.seg)), to_numpy(r.lo, n(r.lo)),
+                                   to_numpy(r.hi, n(r.hi)), to_numpy(r.rising, n(r.rising)));
+        auto dips = py::make_tuple(to_numpy(r.dip_seg, n(r.dip_seg)), to_numpy(r.dip_x1, n(r.dip_x1)),
+                                   to_numpy(r.dip_x2, n(r.dip_x2)), to_numpy(r.dip_x3, n(r.dip_x3)),
+                                   to_numpy(r.dip_sign, n(r.dip_sign)));
+        auto valleys = py::make_tuple(
+            to_numpy(r.val_seg, n(r.val_seg)), to_numpy(r.val_lo, n(r.val_lo)),
+            to_numpy(r.val_hi, n(r.val_hi)), to_numpy(r.val_inside, n(r.val_inside)),
+            to_numpy(r.val_a_lo, n(r.val_a_lo)), to_numpy(r.val_a_hi, n(r.val_a_hi)));
+        return py::make_tuple(sign, dips, valleys);
+      },
+      py::arg("offsets"), py::arg("s"), py::arg("values"), py::arg("ends") = py::none(),
+      py::arg("dip_fraction") = 0.25,
+      "The sign scan of sampled segments (see rdmesh.sampling.roots): "
+      "((seg, lo, hi, rising) sign changes, (seg, x1, x2, x3, sign) dips, "
+      "(seg, lo, hi, inside, |f| at lo, |f| at hi) valleys). values: f at every "
+      "sample, or at the interior samples only when ends (k, 2) are given.");
 
   py::class_<RestrictedDelaunay>(m, "RestrictedDelaunay")
       .def(py::init([](const InArray& centre, double radius) {

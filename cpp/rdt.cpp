@@ -607,8 +607,13 @@ std::vector<std::int64_t> select_independent(const double* centres,
   const char* rule = "; each ball needs a finite centre and a positive radius";
   double rmin = HUGE_VAL;
   for (std::size_t k = 0; k < n; ++k) {
-    const std::string ball = "ball " + std::to_string(k);
     const double r = radii[k];
+    if (finite3(centres + 3 * k) && std::isfinite(r) && r > 0.0) {
+      rmin = std::min(rmin, r);
+      continue;
+    }
+    // Only a bad ball pays for the message.
+    const std::string ball = "ball " + std::to_string(k);
     if (!finite3(centres + 3 * k))
       throw std::invalid_argument(ball + " has a non-finite centre" + rule);
     if (!std::isfinite(r))
@@ -619,7 +624,6 @@ std::vector<std::int64_t> select_independent(const double* centres,
                                                         number(r) + ")"
                                                   : " has radius 0") +
                                   rule);
-    rmin = std::min(rmin, r);
   }
   if (n == 0) return accepted;
   std::vector<std::size_t> order(n);

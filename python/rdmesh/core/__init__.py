@@ -24,6 +24,7 @@ from ._rdt import (
     RestrictedDelaunay,
     VolumeSampler,
     sample_segments,
+    scan_samples,
     select_independent,
     trim_heap,
 )
@@ -38,6 +39,7 @@ __all__ = [
     "RestrictedDelaunay",
     "VolumeSampler",
     "sample_segments",
+    "scan_samples",
     "select_independent",
     "trim_heap",
 ]

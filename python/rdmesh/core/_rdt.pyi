@@ -26,6 +26,35 @@ def sample_segments(
     min_intervals: int = 3,
     max_intervals: int = 64,
 ) -> _SegmentSamples: ...
+def scan_samples(
+    offsets: npt.ArrayLike,
+    s: npt.ArrayLike,
+    values: npt.ArrayLike,
+    ends: npt.ArrayLike | None = None,
+    dip_fraction: float = 0.25,
+) -> tuple[
+    tuple[
+        npt.NDArray[np.int64],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.uint8],
+    ],  # sign changes: seg, lo, hi, rising
+    tuple[
+        npt.NDArray[np.int64],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+    ],  # dips: seg, x1, x2, x3, sign
+    tuple[
+        npt.NDArray[np.int64],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.uint8],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+    ],  # valleys: seg, lo, hi, inside, |f| lo, |f| hi
+]: ...
 def select_independent(centres: npt.ArrayLike, radii: npt.ArrayLike) -> npt.NDArray[np.int64]: ...
 def trim_heap() -> bool: ...
 def _fail_allocation_for_testing(n: int) -> int: ...

@@ -110,22 +110,18 @@ def evaluate_facets(
     if samples is None:
         samples = DualSamples.of(seg, apex, rho)
     flat = SegmentSamples(samples.offsets, samples.s)
-    values = np.empty(len(flat.s))
-    interior = flat.interior()
     if end_values is None:
         v = surface(np.concatenate([samples.interior, seg[:, 0], seg[:, 1]]))
-        values[interior] = v[: len(samples.interior)]
+        interior_values = v[: len(samples.interior)]
         end_values = v[len(samples.interior) :].reshape(2, k).T
     else:
-        values[interior] = surface(samples.interior)
-    values[flat.offsets[:-1]] = end_values[:, 0]
-    values[flat.offsets[1:] - 1] = end_values[:, 1]
+        interior_values = surface(samples.interior)
     start = seg[:, 0]
     d = seg[:, 1] - start
     length = np.sqrt(np.einsum("ij,ij->i", d, d))
     u = d / np.where(length > 0, length, 1.0)[:, None]
     xatol = ROOT_ATOL * surface.radius
-    cr = line_crossings(surface, start, u, flat, xatol, values)
+    cr = line_crossings(surface, start, u, flat, xatol, interior_values, end_values)
     if cr.segment.size == 0:
         return out
     segment = cr.segment

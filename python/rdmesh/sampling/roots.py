@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import elementwise
 
+from .. import core
 from .._tol import DIP_FRACTION
 from ..surfaces.oracle import ImplicitSurface
 
@@ -91,6 +92,7 @@ def line_crossings(
     samples: SegmentSamples,
     xatol: float,
     values: np.ndarray | None = None,
+    ends: np.ndarray | None = None,
 ) -> Crossings:
     """Find every sign change of ``f`` along segments ``origin + s * direction``.
 
@@ -101,7 +103,8 @@ def line_crossings(
     first and last of a segment included, whose two ends are both much
     closer to zero than their outer neighbours (its midpoint is evaluated,
     then searched the same way). Sampled: a pair of crossings that leaves no
-    such trace is missed.
+    such trace is missed. The scan over the samples runs in the core
+    (:func:`rdmesh.core.scan_samples`).
 
     Parameters
     ----------
@@ -109,28 +112,30 @@ def line_crossings(
     origin : (k, 3) segment starts.
     direction : (k, 3) unit directions.
     samples : SegmentSamples
-        Where to sample each segment.
+        Where to sample each segment (at least its two ends).
     xatol : absolute tolerance on each crossing's position.
     values : (P,) float, optional
         ``f`` at every sample, when already known; otherwise one call of ``f``.
+        With ``ends``, ``f`` at the interior samples only (all but each
+        segment's two ends, in order).
+    ends : (k, 2) float, optional
+        ``f`` at each segment's start and end.
 
     Returns
     -------
     Crossings
     """
-    s = samples.s
-    if s.size == 0:
+    if samples.s.size == 0:
         return _empty()
-    seg_of = samples.segment_of()
     if values is None:
-        values = surface(origin[seg_of] + s[:, None] * direction[seg_of])
-    inside = values < 0.0
-    # Neighbouring samples of one segment.
-    same = seg_of[1:] == seg_of[:-1]
-    j = np.flatnonzero(same & (inside[1:] != inside[:-1]))
-    seg, lo, hi, rising = seg_of[j], s[j], s[j + 1], inside[j]
-    *dips, dip_at = _dips(seg_of, s, values, inside, same)
-    pairs, triples = _valleys(surface, origin, direction, seg_of, s, values, inside, same, dip_at)
+        seg_of = samples.segment_of()
+        values = surface(origin[seg_of] + samples.s[:, None] * direction[seg_of])
+        ends = None
+    (seg, lo, hi, rising), dips, valleys = core.scan_samples(
+        samples.offsets, samples.s, values, ends, DIP_FRACTION
+    )
+    rising = rising.view(bool)
+    pairs, triples = _valleys(surface, origin, direction, *valleys)
     # One minimum search for the dips and the valleys together.
     triples = [np.concatenate(p) for p in zip(dips, triples, strict=True)]
     for found in (_split_dips(surface, origin, direction, *triples), pairs):
@@ -180,72 +185,33 @@ def refine_brackets(surface, o, d, lo, hi, xatol):
     return res.x, ok
 
 
-def _dips(seg_of, s, values, inside, same):
-    """Samples where |f| has a deep local minimum without a sign change:
-    (segment, left, middle, right sample positions, sign of f there)."""
-    a = np.abs(values)
-    mid, left, right = a[1:-1], a[:-2], a[2:]
-    dip = (
-        same[:-1]
-        & same[1:]
-        & (mid < DIP_FRACTION * np.maximum(left, right))
-        & (mid < left)
-        & (mid < right)
-        & (inside[:-2] == inside[1:-1])
-        & (inside[1:-1] == inside[2:])
-    )
-    j = np.flatnonzero(dip) + 1
-    at = np.zeros(len(values), bool)
-    at[j] = True
-    return seg_of[j], s[j - 1], s[j], s[j + 1], np.where(inside[j], -1.0, 1.0), at
+def _valleys(surface, origin, direction, seg, lo, hi, inside, a_lo, a_hi):
+    """Crossing pairs hidden inside the scan's valley intervals.
 
-
-def _valleys(surface, origin, direction, seg_of, s, values, inside, same, dip_at):
-    """Crossing pairs hidden inside one interval.
-
-    Candidates are intervals without a sign change, not next to a dip sample,
-    whose ends are both below ``DIP_FRACTION`` times ``|f|`` at the outer
-    neighbour samples (the one there is at a segment's end). The midpoint of
-    each is evaluated (one call of ``f``). Returns ``(pairs, triples)``:
-    brackets ``(seg, lo, hi, rising)`` where the midpoint changes sign, and
-    ``(seg, left, middle, right, sign)`` triples for :func:`_split_dips` where
-    ``|f|`` is smaller at the midpoint than at both ends.
+    The midpoint of each is evaluated (one call of ``f``). Returns ``(pairs,
+    triples)``: brackets ``(seg, lo, hi, rising)`` where the midpoint changes
+    sign, and ``(seg, left, middle, right, sign)`` triples for
+    :func:`_split_dips` where ``|f|`` is smaller at the midpoint than at both
+    ends.
     """
-    a = np.abs(values)
     no_triples = (np.zeros(0, np.int64), *([np.zeros(0)] * 4))
     no_pairs = (np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0, bool))
-    # Interval k lies between samples k and k + 1; its outer neighbours are
-    # samples k - 1 and k + 2 when they belong to the same segment. This runs
-    # on every sample of every chunk, so a loose whole-array screen comes
-    # first (neighbours across segments only add candidates), then the exact
-    # rule on the few candidates.
-    n = len(same)
-    outer = np.zeros(n)
-    outer[1:] = a[:-2]
-    np.maximum(outer[:-1], a[2:], out=outer[:-1])
-    j = np.flatnonzero(same & (np.maximum(a[:-1], a[1:]) < DIP_FRACTION * outer))
-    left = np.where((j >= 1) & same[np.maximum(j - 1, 0)], a[np.maximum(j - 1, 0)], 0.0)
-    right_ok = (j + 1 < n) & same[np.minimum(j + 1, n - 1)]
-    right = np.where(right_ok, a[np.minimum(j + 2, len(a) - 1)], 0.0)
-    keep = np.maximum(a[j], a[j + 1]) < DIP_FRACTION * np.maximum(left, right)
-    keep &= (inside[j] == inside[j + 1]) & ~dip_at[j] & ~dip_at[j + 1]
-    j = j[keep]
-    if j.size == 0:
+    if seg.size == 0:
         return no_pairs, no_triples
-    seg, lo, hi = seg_of[j], s[j], s[j + 1]
+    inside = inside.view(bool)
     mid = 0.5 * (lo + hi)
     fm = surface(origin[seg] + mid[:, None] * direction[seg])
-    c = (fm < 0.0) != inside[j]
-    lower = ~c & (np.abs(fm) < np.minimum(a[j], a[j + 1]))
+    c = (fm < 0.0) != inside
+    lower = ~c & (np.abs(fm) < np.minimum(a_lo, a_hi))
     if c.any():
         log.debug("valleys: %d hidden crossing pairs found at midpoints", int(c.sum()))
     pairs = (
         np.concatenate([seg[c], seg[c]]),
         np.concatenate([lo[c], mid[c]]),
         np.concatenate([mid[c], hi[c]]),
-        np.concatenate([inside[j][c], ~inside[j][c]]),
+        np.concatenate([inside[c], ~inside[c]]),
     )
-    sgn = np.where(inside[j], -1.0, 1.0)
+    sgn = np.where(inside, -1.0, 1.0)
     return pairs, (seg[lower], lo[lower], mid[lower], hi[lower], sgn[lower])
 
 
