@@ -22,7 +22,8 @@ def sphere(radius: float = 1.0) -> ImplicitSurface:
     """Sphere of the given radius about the origin."""
 
     def f(p):
-        return np.einsum("ij,ij->i", p, p) - radius**2
+        x, y, z = _xyz(p)
+        return x * x + y * y + z * z - radius**2
 
     return ImplicitSurface(f, ((0, 0, 0), 2.0 * radius), gradient=lambda p: 2 * p, name="sphere")
 
@@ -32,11 +33,14 @@ def ellipsoid(a: float = 1.5, b: float = 1.0, c: float = 0.5) -> ImplicitSurface
     s = np.array([a, b, c]) ** -2.0
 
     def f(p):
-        return (p * p) @ s - 1.0
+        x, y, z = _xyz(p)
+        return s[0] * (x * x) + s[1] * (y * y) + s[2] * (z * z) - 1.0
 
-    return ImplicitSurface(
-        f, ((0, 0, 0), max(a, b, c) + 0.5), gradient=lambda p: 2 * p * s, name="ellipsoid"
-    )
+    def grad(p):
+        x, y, z = _xyz(p)
+        return np.column_stack([2.0 * s[0] * x, 2.0 * s[1] * y, 2.0 * s[2] * z])
+
+    return ImplicitSurface(f, ((0, 0, 0), max(a, b, c) + 0.5), gradient=grad, name="ellipsoid")
 
 
 def torus(major: float = 1.0, minor: float = 0.4, bound: float | None = None) -> ImplicitSurface:
@@ -87,30 +91,33 @@ def tanglecube() -> ImplicitSurface:
     """Genus-5 tanglecube x^4 - 5x^2 + y^4 - 5y^2 + z^4 - 5z^2 + 11.8."""
 
     def f(p):
-        q = p * p
-        return (q * q - 5.0 * q).sum(axis=1) + 11.8
+        x, y, z = _xyz(p)
+        x2, y2, z2 = x * x, y * y, z * z
+        return x2 * (x2 - 5.0) + y2 * (y2 - 5.0) + z2 * (z2 - 5.0) + 11.8
 
-    return ImplicitSurface(
-        f, ((0, 0, 0), 4.0), gradient=lambda p: 4 * p**3 - 10 * p, name="tanglecube"
-    )
+    def grad(p):
+        return np.column_stack([v * (4.0 * v * v - 10.0) for v in _xyz(p)])
+
+    return ImplicitSurface(f, ((0, 0, 0), 4.0), gradient=grad, name="tanglecube")
 
 
 def two_spheres(gap: float = 0.1) -> ImplicitSurface:
     """Two unit spheres whose surfaces are ``gap`` apart (lfs = gap/2 there)."""
     c = 1.0 + gap / 2.0
-    shift = np.array([c, 0.0, 0.0])
+
+    def parts(p):
+        x, y, z = _xyz(p)
+        q = y * y + z * z - 1.0
+        return x, y, z, (x - c) * (x - c) + q, (x + c) * (x + c) + q
 
     def f(p):
-        a = p - shift
-        b = p + shift
-        return (np.einsum("ij,ij->i", a, a) - 1.0) * (np.einsum("ij,ij->i", b, b) - 1.0)
+        _, _, _, fa, fb = parts(p)
+        return fa * fb
 
     def grad(p):
-        a = p - shift
-        b = p + shift
-        fa = np.einsum("ij,ij->i", a, a) - 1.0
-        fb = np.einsum("ij,ij->i", b, b) - 1.0
-        return 2 * a * fb[:, None] + 2 * b * fa[:, None]
+        x, y, z, fa, fb = parts(p)
+        s = 2.0 * (fa + fb)
+        return np.column_stack([2.0 * ((x - c) * fb + (x + c) * fa), s * y, s * z])
 
     return ImplicitSurface(f, ((0, 0, 0), c + 1.45), gradient=grad, name="two spheres")
 
