@@ -11,7 +11,8 @@ Cases (volumes of known topology, from ``tests/volumes.py``):
   bones, Euler characteristics 0, 2, 2).
 
 A target vertex count sets the *scale* of the volume (samples per axis times
-the scale, the same physical object, noise and blur in physical units), so
+the scale, the same physical object; the phantom's blur in physical units,
+the noisy torus's one sample), so
 that marching cubes at the volume's own resolution gives about that many
 vertices, never below the case's smallest scale (where its topology is
 known); rdmesh meshes the same volume with radius bound = distance bound
@@ -67,12 +68,12 @@ def torus(scale: float = 1.0) -> tuple[np.ndarray, dict]:
 
 
 def noisy_torus(scale: float = 1.0) -> tuple[np.ndarray, dict]:
-    """:func:`torus` plus Gaussian noise (0.02, seeded), blurred by ``scale`` samples."""
+    """:func:`torus` plus Gaussian noise (0.02, seeded), blurred by one sample."""
     from scipy import ndimage
 
     vol, kw = torus(scale)
     rng = np.random.default_rng(4)
-    vol = ndimage.gaussian_filter(vol + rng.normal(0, 0.02, vol.shape), 1.0 * scale)
+    vol = ndimage.gaussian_filter(vol + rng.normal(0, 0.02, vol.shape), 1.0)
     return vol, kw
 
 
