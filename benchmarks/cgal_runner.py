@@ -21,7 +21,10 @@ Typical use::
 ``euler_characteristic`` of the output surface.
 
 ``mesh_3`` is make_mesh_3 with ``params::manifold()``, ``mesh_3_fast`` the
-same without it.  The floor of the benchmarks, CGAL's bulk
+same without it.  ``surface_mesher_boundary`` is make_surface_mesh with
+``Manifold_with_boundary_tag``, the only mesher of the ``CLIPPED_SURFACES``
+(surfaces that cross their bounding sphere, ``tests/clipped_surfaces.py``).
+The floor of the benchmarks, CGAL's bulk
 ``Delaunay_triangulation_3(begin, end)`` of given points, runs with
 ``delaunay_command(exe, points_file)`` (points written by ``write_points``).
 """
@@ -40,6 +43,7 @@ from typing import Any
 
 __all__ = [
     "BOUNDING_SPHERES",
+    "CLIPPED_SURFACES",
     "DEFAULT_BUILD_DIR",
     "MESHERS",
     "SOURCE_DIR",
@@ -60,7 +64,7 @@ SOURCE_DIR = _HERE / "cgal_reference"
 DEFAULT_BUILD_DIR = _HERE / "build" / "cgal_reference"
 _EXE_NAME = "cgal_reference"
 
-MESHERS = ("surface_mesher", "mesh_3", "mesh_3_fast")
+MESHERS = ("surface_mesher", "surface_mesher_boundary", "mesh_3", "mesh_3_fast")
 SURFACES = (
     "sphere",
     "ellipsoid",
@@ -71,6 +75,10 @@ SURFACES = (
     "two_spheres",
     "blob_line",
 )
+
+#: Surfaces that leave their bounding sphere (``tests/clipped_surfaces.py``);
+#: only ``surface_mesher_boundary`` meshes them.
+CLIPPED_SURFACES = ("clipped_gyroid", "clipped_plane", "clipped_cylinder", "clipped_half_torus")
 
 #: Bounding sphere ((cx, cy, cz), r) the program hands to CGAL for each surface
 #: (the table in cgal_reference.cpp): the centre is inside the surface, as
@@ -233,8 +241,12 @@ def reference_command(
     """
     if mesher not in MESHERS:
         raise ValueError(f"unknown mesher {mesher!r}; expected one of {MESHERS}")
-    if surface not in SURFACES:
-        raise ValueError(f"unknown surface {surface!r}; expected one of {SURFACES}")
+    if surface not in SURFACES + CLIPPED_SURFACES:
+        raise ValueError(
+            f"unknown surface {surface!r}; expected one of {SURFACES + CLIPPED_SURFACES}"
+        )
+    if surface in CLIPPED_SURFACES and mesher != "surface_mesher_boundary":
+        raise ValueError(f"{surface!r} leaves its sphere: only surface_mesher_boundary meshes it")
     cmd = [
         str(exe),
         "--mesher", mesher,

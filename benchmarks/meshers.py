@@ -33,7 +33,7 @@ from measure import last_line, run_measured
 from meshfile import save_mesh
 from record import fmt_size, jsonable
 
-__all__ = ["CGAL_MESHERS", "FLOOR", "MESHERS", "adapters", "child_main"]
+__all__ = ["CGAL_MESHERS", "FLOOR", "MESHERS", "adapters", "build_cgal", "child_main"]
 
 MESHERS = (
     "rdmesh",
@@ -204,7 +204,15 @@ CHILDREN: dict[str, Callable[[dict], dict]] = {
 
 
 def child_main(spec: dict) -> int:
-    """Run one mesher as described by ``spec``; print one JSON line."""
+    """Run one mesher as described by ``spec``; print one JSON line.
+
+    A spec with an ``input`` (a volume, a mesh to remesh, a clipped surface)
+    goes to that input's runner (``inputs.child_run``).
+    """
+    if spec.get("input", "implicit") != "implicit":
+        from inputs import child_run
+
+        return child_run(spec)
     result = CHILDREN[spec["mesher"]](spec)
     print(json.dumps(jsonable(result)))
     return 0
@@ -431,15 +439,21 @@ class DelaunayFloor(Mesher):
         }
 
 
-def _build_cgal(record: dict, log: Callable[[str], None]) -> tuple[Path | None, str | None]:
-    """Build the CGAL reference: (executable, None) or (None, why not)."""
+def build_cgal(record: dict, log: Callable[[str], None]) -> tuple[Path | None, str | None]:
+    """Build the CGAL reference (once: later calls find it up to date).
+
+    Returns (executable, None) or (None, why not); records
+    ``cgal_build_seconds``.
+    """
     from cgal_runner import CgalReferenceError, build_reference
 
     try:
         log("building the CGAL reference (first time: about a minute) ...")
         t0 = time.perf_counter()
         exe = build_reference()
-        record["cgal_build_seconds"] = time.perf_counter() - t0
+        record["cgal_build_seconds"] = record.get("cgal_build_seconds", 0.0) + (
+            time.perf_counter() - t0
+        )
         return exe, None
     except (CgalReferenceError, OSError) as exc:
         return None, f"CGAL reference not built: {last_line(str(exc))}"
@@ -463,7 +477,7 @@ def adapters(
     }
     out: dict[str, Mesher] = {m: kinds[m](m) for m in names if m in kinds}
     if any(m in CGAL_MESHERS or m == FLOOR for m in names):
-        exe, why = _build_cgal(record, log)
+        exe, why = build_cgal(record, log)
         for m in (*CGAL_MESHERS, FLOOR):
             if why is not None and m in names:
                 unavailable[m] = why

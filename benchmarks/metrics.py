@@ -8,7 +8,7 @@ pygalmesh, marching cubes):
 - :func:`compact` drops unused vertices (CGAL's OFF output may keep some).
 - :func:`angle_stats`: smallest angle, fraction of angles below 30 degrees and
   a histogram of each triangle's smallest angle.
-- :func:`topology_stats`: closed manifold, components and Euler
+- :func:`topology_stats`: closed manifold (or with boundary: loops), components and Euler
   characteristic against the expected values (``rdmesh.topology.complex`` helpers).
 - :func:`hausdorff`: the sampled two-sided Hausdorff distance between the mesh
   and the surface ``f = 0``.
@@ -150,41 +150,63 @@ def topology_stats(
     faces: np.ndarray,
     expected_components: int | None = None,
     expected_euler: int | None = None,
+    *,
+    expected_loops: int | None = None,
+    expected_per_component: list[int] | None = None,
 ) -> dict[str, Any]:
-    """Closed manifold, components and Euler characteristic (V - E + F).
+    """Closed manifold, components, Euler characteristic (V - E + F), boundary loops.
 
     ``closed_manifold``: every edge has exactly two faces and every used
-    vertex one fan of faces (``rdmesh.topology.complex.complex_status``).
+    vertex one fan of faces (``rdmesh.topology.complex.complex_status``);
+    ``manifold_with_boundary``: the same but with some edges in one face.
     ``euler`` is the total and ``euler_per_component`` the list, as
-    ``rdmesh.topology.complex.euler_characteristics`` gives it.  ``topology_ok`` is
-    True when the mesh is a closed manifold with the expected number of
-    components and Euler characteristic (None when nothing is expected).
+    ``rdmesh.topology.complex.euler_characteristics`` gives it;
+    ``boundary_loops`` the total number of boundary loops.
+
+    ``topology_ok`` is True when the mesh has the expected number of
+    components and Euler characteristic (and, with
+    ``expected_per_component``, the same sorted Euler characteristics per
+    component) and is a closed manifold, or with ``expected_loops`` a
+    manifold with that many boundary loops (closed for 0); None when
+    nothing is expected.
     """
-    from rdmesh.topology.complex import complex_status, euler_characteristics
+    from rdmesh.topology.complex import boundary_loops, complex_status, euler_characteristics
 
     n = len(vertices)
     faces = np.asarray(faces, dtype=np.int64)
     if len(faces) == 0:
-        closed, chi = False, []
+        closed = with_boundary = False
+        chi: list[int] = []
+        loops = 0
     else:
         st = complex_status(faces, n)
         used = np.unique(faces)
-        closed = bool(np.all(st.edge_count == 2) and np.all(st.vertex_fans[used] == 1))
+        manifold = bool(np.all(st.edge_count <= 2) and np.all(st.vertex_fans[used] == 1))
+        open_edges = bool(np.any(st.edge_count == 1))
+        closed = manifold and not open_edges
+        with_boundary = manifold and open_edges
         chi = euler_characteristics(faces, n)
+        loops = sum(boundary_loops(faces, n)) if open_edges else 0
     res: dict[str, Any] = {
         "closed_manifold": closed,
+        "manifold_with_boundary": with_boundary,
         "components": len(chi),
         "euler": int(sum(chi)),
         "euler_per_component": chi,
+        "boundary_loops": int(loops),
         "expected_components": expected_components,
         "expected_euler": expected_euler,
+        "expected_loops": expected_loops,
+        "expected_per_component": expected_per_component,
     }
     if expected_components is None or expected_euler is None:
         res["topology_ok"] = None
-    else:
-        res["topology_ok"] = bool(
-            closed and len(chi) == expected_components and sum(chi) == expected_euler
-        )
+        return res
+    shape_ok = (with_boundary and loops == expected_loops) if expected_loops else closed
+    ok = shape_ok and len(chi) == expected_components and sum(chi) == expected_euler
+    if expected_per_component is not None:
+        ok = ok and sorted(chi) == sorted(expected_per_component)
+    res["topology_ok"] = bool(ok)
     return res
 
 

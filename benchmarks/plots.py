@@ -12,6 +12,10 @@
 - ``<stem>-angles.png``: histograms of each triangle's smallest angle, one
   panel per mesher, one line per size (all surfaces together), with the
   30-degree bound marked.
+
+``render_suite(results, out_dir, stem)`` draws those four for the built-in
+surfaces and again for each other input in the record (volumes, remeshing,
+clipped surfaces: ``<stem>-<input>-time.png`` and so on, a panel per case).
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.ticker import NullFormatter  # noqa: E402
 
-__all__ = ["COLORS", "render_all"]
+__all__ = ["COLORS", "render_all", "render_suite"]
 
 #: One colour and marker per mesher, the same in every plot.
 COLORS = {
@@ -39,6 +43,8 @@ COLORS = {
     "pygalmesh": ("tab:red", "D"),
     "marching_cubes": ("tab:purple", "v"),
     "cgal_delaunay_floor": ("black", "x"),  # no surface: time and memory only
+    "input": ("tab:gray", "P"),  # remeshing: the input mesh itself
+    "pymeshlab": ("tab:brown", "*"),
 }
 
 _ANGLE_EDGES = np.linspace(0.0, 60.0, 121)
@@ -137,7 +143,7 @@ def _hausdorff(c: dict) -> float | None:
     return h.get("two_sided")
 
 
-def _angles(results: dict, path: Path) -> Path:
+def _angles(results: dict, path: Path, label: str = "") -> Path:
     # The floor (a 3D triangulation of rdmesh's vertices) has no triangles.
     meshers = [m for m in _meshers(results) if m != "cgal_delaunay_floor"]
     cases = _ok_cases(results)
@@ -170,28 +176,59 @@ def _angles(results: dict, path: Path) -> Path:
         else:
             ax.text(0.5, 0.5, "no quality data", ha="center", va="center",
                     transform=ax.transAxes)  # fmt: skip
-    fig.suptitle("Smallest-angle histograms (all surfaces), dashed: angle bound")
+    fig.suptitle(_titled(label, "Smallest-angle histograms (all cases), dashed: angle bound"))
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
 
 
-def render_all(results: dict[str, Any], out_dir: str | Path, stem: str) -> dict[str, Path]:
-    """Write the four PNGs into ``out_dir``; returns {name: path}."""
+def _titled(label: str, title: str) -> str:
+    return f"{label}: {title}" if label else title
+
+
+def render_all(
+    results: dict[str, Any], out_dir: str | Path, stem: str, label: str = ""
+) -> dict[str, Path]:
+    """Write the four PNGs of ``results``' cases into ``out_dir``; returns {name: path}.
+
+    ``label`` starts each figure's title (for example the input's name).
+    """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     return {
         "time": _per_surface(
-            results, _time, "seconds (median)", "Meshing time against vertices",
+            results, _time, "seconds (median)", _titled(label, "Meshing time against vertices"),
             out / f"{stem}-time.png",
         ),
         "memory": _per_surface(
-            results, _memory, "peak RSS (MB)", "Peak memory of the meshing process",
-            out / f"{stem}-memory.png",
+            results, _memory, "peak RSS (MB)",
+            _titled(label, "Peak memory of the meshing process"), out / f"{stem}-memory.png",
         ),
         "hausdorff": _per_surface(
             results, _hausdorff, "two-sided Hausdorff distance",
-            "Sampled Hausdorff distance to the surface", out / f"{stem}-hausdorff.png",
+            _titled(label, "Sampled Hausdorff distance to the reference"),
+            out / f"{stem}-hausdorff.png",
         ),
-        "angles": _angles(results, out / f"{stem}-angles.png"),
+        "angles": _angles(results, out / f"{stem}-angles.png", label),
     }  # fmt: skip
+
+
+def render_suite(results: dict[str, Any], out_dir: str | Path, stem: str) -> dict[str, Path]:
+    """The plots of every input in ``results``; returns {name: path}.
+
+    The built-in surfaces' as :func:`render_all` names them (``time`` in
+    ``<stem>-time.png``, ...), each other input's as ``<input>-time`` in
+    ``<stem>-<input>-time.png``, and so on.
+    """
+    by_input: dict[str, list] = {}
+    for c in results.get("cases", []):
+        by_input.setdefault(c.get("input", "implicit"), []).append(c)
+    files: dict[str, Path] = {}
+    if "implicit" in by_input or not by_input:
+        files.update(render_all({**results, "cases": by_input.get("implicit", [])}, out_dir, stem))
+    for name, cases in by_input.items():
+        if name != "implicit":
+            sub = {**results, "cases": cases}
+            for key, path in render_all(sub, out_dir, f"{stem}-{name}", name).items():
+                files[f"{name}-{key}"] = path
+    return files

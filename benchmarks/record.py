@@ -129,6 +129,9 @@ def new_record(args: argparse.Namespace) -> dict[str, Any]:
         "versions": package_versions(),
         "settings": {
             "quick": args.quick,
+            "inputs": list(getattr(args, "inputs", ["implicit"])),
+            "cases": list(getattr(args, "cases", None) or []),
+            "input_meshers": getattr(args, "input_meshers", None),
             "surfaces": list(args.surfaces),
             "sizes": [int(s) for s in args.sizes],
             "meshers": list(args.meshers),
@@ -158,9 +161,16 @@ def new_record(args: argparse.Namespace) -> dict[str, Any]:
 # ---------------------------------------------------------------------------
 
 
-def new_case(surface: str, size: int, mesher: str, params: dict[str, Any]) -> dict[str, Any]:
-    """A case (one mesher, surface and size) before its first run."""
+def new_case(
+    surface: str, size: int, mesher: str, params: dict[str, Any], input_name: str = "implicit"
+) -> dict[str, Any]:
+    """A case (one mesher, surface and size) before its first run.
+
+    ``input_name``: "implicit" (a built-in surface) or one of the other
+    inputs (``inputs.INPUTS``), whose case name is ``surface``.
+    """
     return {
+        "input": input_name,
         "surface": surface,
         "size": size,
         "mesher": mesher,

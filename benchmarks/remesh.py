@@ -45,6 +45,10 @@ from scipy.sparse.csgraph import connected_components
 from skimage.measure import marching_cubes
 
 RESULTS = Path(__file__).with_name("results")
+#: The built-in surfaces whose marching-cubes meshes are remeshed (also the
+#: suite's remeshing cases, ``input_remesh.py``), and the versions of each.
+DEFAULT_SURFACES = ("sphere", "torus", "double_torus")
+VARIANTS = ("plain", "decimated", "noisy")
 
 
 # -- inputs ---------------------------------------------------------------------------
@@ -73,6 +77,8 @@ def decimate(v, f, cell):
 
 
 def variants(name: str, n: int):
+    """(variant, (vertices, faces)) for each of VARIANTS: the marching-cubes mesh
+    of the built-in surface ``name`` on an ``n``-per-axis grid, decimated, noisy."""
     v, f = mc_input(name, n)
     yield "plain", (v, f)
     yield "decimated", decimate(v, f, 2.5 * mean_edge(v, f))
@@ -234,7 +240,7 @@ def picture(path: str, grid: int, fraction: float) -> None:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--surfaces", nargs="+", default=["sphere", "torus", "double_torus"])
+    p.add_argument("--surfaces", nargs="+", default=list(DEFAULT_SURFACES))
     p.add_argument("--grid", type=int, default=48, help="marching cubes resolution")
     p.add_argument("--fraction", type=float, default=40, help="radius bound = R / fraction")
     p.add_argument("--out", default=None, help="JSON path (default results/remesh-DATE.json)")

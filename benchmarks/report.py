@@ -26,7 +26,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-__all__ = ["LABELS", "build", "tables", "targets"]
+__all__ = ["LABELS", "build", "implicit", "tables", "targets"]
 
 #: Peak memory every 1M-vertex run must stay within (the machine's size).
 MEMORY_LIMIT_MB = 24 * 1024
@@ -101,6 +101,12 @@ def _status(c: dict) -> str:
             note = note[:87] + "..."
         return f"{s}: {note}"
     return s
+
+
+def implicit(results: dict) -> dict[str, Any]:
+    """``results`` with only the built-in surfaces' cases (not the other inputs')."""
+    cases = [c for c in results.get("cases", []) if c.get("input", "implicit") == "implicit"]
+    return {**results, "cases": cases}
 
 
 def _find(results: dict, surface: str, size: int, mesher: str) -> dict | None:
@@ -247,7 +253,8 @@ def targets(results: dict) -> list[dict[str, Any]]:
     ``passed`` (True/False, None when a needed run is missing) and ``note``.
     """
     out: list[dict[str, Any]] = []
-    cases = results.get("cases", [])
+    results = implicit(results)
+    cases = results["cases"]
     keys = sorted({(c["surface"], c["size"]) for c in cases}, key=lambda k: (k[1], k[0]))
     for surface, size in keys:
         if size < TARGET_MIN_SIZE:
@@ -347,7 +354,14 @@ def targets_table(results: dict) -> str:
 
 
 def tables(results: dict) -> str:
-    """Headline, time ratios, performance, quality and targets tables, as markdown."""
+    """Headline, time ratios, performance, quality and targets tables, as markdown,
+    of the built-in surfaces; then a table per other input (``report_inputs``)."""
+    import report_inputs
+
+    other = report_inputs.tables(results)
+    results = implicit(results)
+    if other and not results["cases"]:
+        return other
     return "\n\n".join([
         "### Headline: rdmesh ÷ the faster Mesh_3 setting", headline_text(results),
         "### Time ratios (rdmesh ÷ each reference, same case, medians)",
@@ -355,7 +369,7 @@ def tables(results: dict) -> str:
         "### Performance", performance_table(results),
         "### Quality", quality_table(results),
         "### Targets (sizes >= 100k)", targets_table(results),
-    ])  # fmt: skip
+    ] + ([other] if other else []))  # fmt: skip
 
 
 # ---------------------------------------------------------------------------
@@ -375,6 +389,7 @@ def _setup(results: dict) -> str:
         f"{', '.join(f'{x:.2f}' for x in m.get('loadavg_start', []))}",
         "- versions: " + ", ".join(f"{k} {val}" for k, val in v.items() if val),
         f"- command: `{' '.join(results.get('command', []))}`",
+        f"- inputs: {', '.join(s.get('inputs', ['implicit']))}",
         f"- criteria: angle {s.get('angle')}°, radius bound r from calibration, "
         f"distance bound = r, seed {s.get('seed')}",
         f"- repeats: {s.get('repeats')} (pygalmesh: {s.get('pygalmesh_repeats')}, sizes up to "
@@ -448,10 +463,15 @@ _METHOD = """\
 
 def build(results: dict, plots: dict[str, str] | None = None) -> str:
     """The full markdown report; ``plots`` maps plot names to file names."""
+    import report_inputs
+
     plots = plots or {}
-    parts = [
-        "# rdmesh benchmark suite",
-        _setup(results),
+    parts = ["# rdmesh benchmark suite", _setup(results)]
+    others = report_inputs.sections(results, plots)
+    results = implicit(results)
+    if not results["cases"] and others:
+        return "\n\n".join([*parts, *others, "## How it is measured", _METHOD]) + "\n"
+    parts += [
         "## Calibration",
         "Target vertex counts map to a radius bound through vertices ≈ C · area / r², "
         "with C from an rdmesh run on each surface. CGAL and pygalmesh get the same r; "
@@ -465,11 +485,12 @@ def build(results: dict, plots: dict[str, str] | None = None) -> str:
         "hausdorff": "Hausdorff distance against vertices",
         "angles": "Smallest-angle histograms",
     }
-    if plots:
+    own = {k: v for k, v in plots.items() if k in titles}
+    if own:
         parts.append("## Plots")
-        for key, name in plots.items():
+        for key, name in own.items():
             parts.append(f"### {titles.get(key, key)}\n\n![{key}]({name})")
-    parts += ["## How it is measured", _METHOD]
+    parts += [*others, "## How it is measured", _METHOD]
     return "\n\n".join(parts) + "\n"
 
 
@@ -485,7 +506,7 @@ def main(argv: list[str] | None = None) -> int:
     results = json.loads(args.results.read_text())
     results["targets"] = targets(results)
     stem = args.results.stem
-    files = plotting.render_all(results, args.results.parent, stem)
+    files = plotting.render_suite(results, args.results.parent, stem)
     md = build(results, {k: p.name for k, p in files.items()})
     out = args.results.with_suffix(".md")
     out.write_text(md)

@@ -6,6 +6,11 @@ For every surface: calibrate; for every size: a case per mesher, run
 a fresh process measured by ``measure.run_measured``; quality measured once
 per case on the first successful run's mesh; the JSON record written after
 every run.  Failures and timeouts are recorded, not raised.
+
+The other inputs (``--inputs volume remesh clipped``, ``inputs.py``) run
+the same way after the built-in surfaces: for every case of the input and
+every size, a case per mesher of that input, with the input's parameters
+and quality measurement.
 """
 
 from __future__ import annotations
@@ -13,17 +18,19 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import os
+import re
 import sys
 from pathlib import Path
 from typing import Any
 
+import inputs
 import record
 from calibration import cached_calibration, calibration_target
 from measure import run_measured
 from meshers import FLOOR, Mesher, adapters
 from quality import QualityMeter
 
-__all__ = ["Suite", "describe"]
+__all__ = ["Suite", "describe", "unavailable_key"]
 
 
 def _stem(out: Path) -> str:
@@ -35,9 +42,14 @@ def _stem(out: Path) -> str:
     return stem
 
 
+def unavailable_key(input_name: str, mesher: str) -> str:
+    """How ``record["unavailable"]`` names a mesher of an input."""
+    return mesher if input_name == "implicit" else f"{mesher} ({input_name})"
+
+
 def describe(case: dict, run: dict) -> str:
     """One line about one run, for the log."""
-    head = f"{case['surface']:12s} {record.fmt_size(case['size']):>5s} {case['mesher']:20s} "
+    head = f"{case['surface']:18s} {record.fmt_size(case['size']):>5s} {case['mesher']:20s} "
     head += f"rep {run['repeat']}: "
     if run["status"] != "ok":
         return head + f"{run['status'].upper()} {run['error']}"
@@ -62,6 +74,8 @@ class Suite:
         self.results: dict[str, Any] = record.new_record(args)
         self.unavailable: dict[str, str] = self.results["unavailable"]
         self.meshers: dict[str, Mesher] = {}
+        # The other inputs' adapters, by (input, mesher).
+        self.input_meshers: dict[tuple[str, str], Mesher] = {}
         self.quality = QualityMeter(
             self.cache, args.reference_samples, args.angle, args.seed, self.log
         )
@@ -73,6 +87,16 @@ class Suite:
         record.save(self.results, self.json_path)
 
     def run(self) -> None:
+        """Every input's cases, then ``finished`` is set."""
+        if "implicit" in self.args.inputs:
+            self.run_implicit()
+        for name in self.args.inputs:
+            if name != "implicit":
+                self.run_input(name)
+        self.results["finished"] = True
+
+    def run_implicit(self) -> None:
+        """The built-in surfaces: calibrate each, then every size and mesher."""
         args = self.args
         self.meshers = adapters(args.meshers, args, self.results, self.log)
         self.save()
@@ -85,26 +109,57 @@ class Suite:
             self.results["calibration"][surface] = cal
             self.save()
             for size in sorted(int(s) for s in args.sizes):
-                cases = {m: self.new_case(m, surface, size, cal) for m in args.meshers}
+                cases = {
+                    m: self.new_case(m, surface, size, self.meshers[m].params(surface, size, cal))
+                    for m in args.meshers
+                }
                 self.run_cases(cases)
-        self.results["finished"] = True
 
-    def new_case(self, mesher: str, surface: str, size: int, cal: dict) -> dict[str, Any]:
+    def run_input(self, name: str) -> None:
+        """One of the other inputs: every case, size and mesher of it."""
+        args = self.args
+        kind = inputs.kind(name)
+        names = [m for m in kind.meshers if args.input_meshers is None or m in args.input_meshers]
+        for m in names:
+            adapter, why = kind.adapter(m, self.results, self.log)
+            self.input_meshers[name, m] = adapter
+            if why is not None:
+                self.unavailable[unavailable_key(name, m)] = why
+                self.log(f"note: {m} on the {name} input skipped: {why}")
+        self.save()
+        for case_name in kind.cases():
+            if args.cases and case_name not in args.cases:
+                continue
+            for size in sorted(int(s) for s in args.sizes):
+                params = kind.params(case_name, size)
+                cases = {m: self.new_case(m, case_name, size, params, name) for m in names}
+                self.run_cases(cases)
+
+    def adapter(self, case: dict) -> Mesher:
+        """The adapter that runs ``case``."""
+        name = case.get("input", "implicit")
+        if name == "implicit":
+            return self.meshers[case["mesher"]]
+        return self.input_meshers[name, case["mesher"]]
+
+    def new_case(
+        self, mesher: str, surface: str, size: int, params: dict, input_name: str = "implicit"
+    ) -> dict[str, Any]:
         """A case, marked if it is not run, appended to the record."""
-        params = self.meshers[mesher].params(surface, size, cal)
-        case = record.new_case(surface, size, mesher, params)
-        why = self.skip_reason(mesher, surface, size)
+        case = record.new_case(surface, size, mesher, params, input_name)
+        why = self.skip_reason(case)
         if why is not None:
-            case.update(
-                status="unavailable" if mesher in self.unavailable else "skipped", note=why
-            )
+            key = unavailable_key(input_name, mesher)
+            case.update(status="unavailable" if key in self.unavailable else "skipped", note=why)
         self.results["cases"].append(case)
         return case
 
-    def skip_reason(self, mesher: str, surface: str, size: int) -> str | None:
-        if mesher in self.unavailable:
-            return self.unavailable[mesher]
-        why = self.meshers[mesher].skip(size, self.args)
+    def skip_reason(self, case: dict) -> str | None:
+        mesher, surface, size = case["mesher"], case["surface"], case["size"]
+        key = unavailable_key(case["input"], mesher)
+        if key in self.unavailable:
+            return self.unavailable[key]
+        why = self.adapter(case).skip(size, self.args)
         if why is not None:
             return why
         # A mesher that failed or timed out on a smaller size is not tried again.
@@ -144,8 +199,7 @@ class Suite:
         The floor runs after rdmesh in the first repeat (it needs rdmesh's
         vertices); from then on the order alternates as for the others.
         """
-        args = self.args
-        first = list(args.meshers)
+        first = list(cases)
         if FLOOR in first and "rdmesh" in first:
             first.remove(FLOOR)
             first.insert(first.index("rdmesh") + 1, FLOOR)
@@ -165,11 +219,11 @@ class Suite:
                 case = cases[mesher]
                 if case["status"] in ("skipped", "unavailable"):
                     continue
-                if rep >= self.meshers[mesher].repeats(args):
+                if rep >= self.adapter(case).repeats(args):
                     continue
                 if any(r["status"] == "timeout" for r in case["runs"]):
                     continue  # do not spend another timeout on it
-                keep = case["quality"] is None and self.meshers[mesher].writes_mesh
+                keep = case["quality"] is None and self.adapter(case).writes_mesh
                 run = self.run_once(case, rep, keep_mesh=keep)
                 case["runs"].append(run)
                 if mesher == "rdmesh":
@@ -177,10 +231,7 @@ class Suite:
                 self.log(describe(case, run))
                 if run["status"] == "ok" and case["quality"] is None and "mesh_file" in run:
                     try:
-                        bbox = self.results["calibration"][case["surface"]]["bbox"]
-                        case["quality"] = self.quality.measure(
-                            case["surface"], run["mesh_file"], bbox
-                        )
+                        case["quality"] = self.measure_quality(case, run["mesh_file"])
                     except Exception as exc:  # noqa: BLE001 - record, do not crash
                         case["quality"] = {"error": f"{type(exc).__name__}: {exc}"}
                 if run.get("mesh_file"):
@@ -189,12 +240,34 @@ class Suite:
                 record.summarise(case)
                 self.save()
 
+    def measure_quality(self, case: dict, mesh_file: str) -> dict[str, Any]:
+        """The quality entry of a case, from the mesh its run wrote."""
+        name = case.get("input", "implicit")
+        if name == "implicit":
+            bbox = self.results["calibration"][case["surface"]]["bbox"]
+            return self.quality.measure(case["surface"], mesh_file, bbox)
+        import time
+
+        from meshfile import load_mesh
+        from metrics import compact
+
+        t0 = time.perf_counter()
+        v, f = compact(*load_mesh(mesh_file))
+        args = self.args
+        q = inputs.kind(name).quality(
+            case["surface"], case["params"], v, f,
+            reference_samples=args.reference_samples, seed=args.seed, angle=args.angle,
+        )  # fmt: skip
+        q["seconds"] = time.perf_counter() - t0
+        return q
+
     def run_once(self, case: dict, repeat: int, keep_mesh: bool) -> dict[str, Any]:
         """One run of a case in a fresh process: the run's record."""
-        m = self.meshers[case["mesher"]]
+        m = self.adapter(case)
         mesh_path = None
         if keep_mesh:
-            mesh_path = str(self.tmp / f"{case['surface']}-{case['size']}-{m.name}{m.suffix}")
+            stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", case["surface"])
+            mesh_path = str(self.tmp / f"{stem}-{case['size']}-{m.name}{m.suffix}")
         timeout = m.timeout(self.args)
         load = os.getloadavg()[0]
         try:
@@ -236,7 +309,7 @@ class Suite:
         self.results["machine"]["loadavg_end"] = list(os.getloadavg())
         self.results["targets"] = report.targets(self.results)
         self.save()
-        files = plots.render_all(self.results, self.out, self.stem)
+        files = plots.render_suite(self.results, self.out, self.stem)
         md = report.build(self.results, {k: p.name for k, p in files.items()})
         md_path = self.out / f"{self.stem}.md"
         md_path.write_text(md)

@@ -9,6 +9,13 @@ writes ``<out>/<date>.json`` (all runs), ``<out>/<date>.md`` (the report) and
     python benchmarks/suite.py                     # 8 surfaces x 1e4, 1e5, 1e6 (hours)
     python benchmarks/suite.py --quick             # 3 surfaces, small sizes, 1 repeat (< 2 min)
     python benchmarks/suite.py --surfaces torus tanglecube --sizes 1e4 1e5 --repeats 5
+    python benchmarks/suite.py --inputs volume remesh clipped --sizes 1e4 --repeats 1
+
+``--inputs`` adds the other inputs of issue 15 as rows (default: the
+built-in implicit surfaces only): volumes (``input_volume.py``), triangle
+meshes to remesh (``input_remesh.py``) and surfaces clipped by their
+bounding sphere (``input_clipped.py``), each with its own meshers, quality
+table and plots.
 
 This file is the command line only; the work is done by
 
@@ -24,7 +31,10 @@ This file is the command line only; the work is done by
 - ``calibration.py``: target vertex count -> radius bound, per surface;
 - ``quality.py`` (with ``metrics.py``): angles, topology, Hausdorff distance;
 - ``record.py``: the JSON record; ``meshfile.py``: the meshes runs write;
-- ``report.py`` and ``plots.py``: the markdown report and the PNG plots.
+- ``inputs.py`` (with ``input_volume.py``, ``input_remesh.py``,
+  ``input_clipped.py``): the other inputs' cases, meshers and quality;
+- ``report.py`` (with ``report_inputs.py``) and ``plots.py``: the markdown
+  report and the PNG plots.
 
 See benchmarks/README.md for what is measured and how.
 """
@@ -44,6 +54,7 @@ if str(HERE) not in sys.path:
 
 import report  # noqa: E402
 from cgal_runner import SURFACES as ALL_SURFACES  # noqa: E402
+from inputs import INPUTS, kind  # noqa: E402
 from meshers import MESHERS, child_main  # noqa: E402
 from record import fmt_size  # noqa: E402
 from runner import Suite  # noqa: E402
@@ -104,12 +115,28 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help="target vertex counts, default 1e4 1e5 1e6",
     )
     p.add_argument(
+        "--inputs",
+        nargs="+",
+        choices=INPUTS,
+        default=["implicit"],
+        metavar="INPUT",
+        help=f"what is meshed: {' '.join(INPUTS)} (default: implicit, the built-in surfaces)",
+    )
+    p.add_argument(
+        "--cases",
+        nargs="+",
+        choices=_input_cases(),
+        metavar="NAME",
+        help="cases of the other inputs to run (default: all of them; quote names "
+        f"with spaces): {', '.join(_input_cases())}",
+    )
+    p.add_argument(
         "--meshers",
         nargs="+",
-        choices=MESHERS,
-        default=list(MESHERS),
+        choices=MESHERS + _input_only_meshers(),
         metavar="NAME",
-        help=f"default: all ({' '.join(MESHERS)})",
+        help=f"default: all ({' '.join(MESHERS)}; the other inputs: all of theirs, "
+        f"among them {' '.join(_input_only_meshers())})",
     )
     p.add_argument("--repeats", type=int, help="runs per case, median reported (default 3)")
     p.add_argument("--out", default=str(HERE / "results"), help="output directory")
@@ -182,8 +209,24 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         p.error("--reference-samples must be >= 1000")
     # Keep the user's order but drop duplicates.
     args.surfaces = list(dict.fromkeys(args.surfaces))
-    args.meshers = list(dict.fromkeys(args.meshers))
+    args.inputs = list(dict.fromkeys(args.inputs))
+    # --meshers picks the built-in surfaces' meshers and filters the other
+    # inputs' (None: all of theirs).
+    given = list(dict.fromkeys(args.meshers)) if args.meshers else None
+    args.input_meshers = given
+    args.meshers = [m for m in given if m in MESHERS] if given else list(MESHERS)
+    if "implicit" in args.inputs and not args.meshers:
+        p.error(f"--meshers names none of the built-in surfaces' meshers ({' '.join(MESHERS)})")
     return args
+
+
+def _input_cases() -> list[str]:
+    return [c for name in INPUTS[1:] for c in kind(name).cases()]
+
+
+def _input_only_meshers() -> tuple[str, ...]:
+    seen = [m for name in INPUTS[1:] for m in kind(name).meshers if m not in MESHERS]
+    return tuple(dict.fromkeys(seen))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -37,23 +37,25 @@ from pathlib import Path
 
 import numpy as np
 import rdmesh
-from scipy import ndimage
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent / "tests"))
 
+import input_volume  # noqa: E402
 import metrics  # noqa: E402
 import volumes  # noqa: E402
 
-TORUS_BOX = ((-1.6, -1.6, -0.6), (1.6, 1.6, 0.6))
-
 
 def cases() -> dict[str, tuple[np.ndarray, dict, list[int]]]:
-    """name -> (volume, VolumeSurface keywords, Euler characteristic per component)."""
+    """name -> (volume, VolumeSurface keywords, Euler characteristic per component).
+
+    The torus, the noisy torus and the phantom are the suite's volume cases
+    (``input_volume.py``) at scales 1, 2 and 1.
+    """
     out = {}
-    vol, sp, org = volumes.sample(rdmesh.surfaces.torus(), *TORUS_BOX, 40)
-    out["torus 40^3"] = (vol, {"spacing": sp, "origin": org, "isovalue": 0.0}, [0])
+    vol, kw = input_volume.torus(1.0)
+    out["torus 40^3"] = (vol, kw, [0])
     vol, sp, org = volumes.sample(
         rdmesh.surfaces.double_torus(), (-0.3, -1.0, -0.15), (2.3, 1.0, 0.15), 40
     )
@@ -62,16 +64,10 @@ def cases() -> dict[str, tuple[np.ndarray, dict, list[int]]]:
         {"spacing": sp, "origin": org, "isovalue": 0.0},
         [-2],
     )
-    vol, sp, org = volumes.sample(rdmesh.surfaces.torus(), *TORUS_BOX, 80)
-    rng = np.random.default_rng(4)
-    vol = ndimage.gaussian_filter(vol + rng.normal(0, 0.02, vol.shape), 1.0)
-    out["noisy blurred torus 80^3"] = (vol, {"spacing": sp, "origin": org, "isovalue": 0.0}, [0])
-    vol, sp = volumes.phantom()
-    out["CT phantom 48x48x32"] = (
-        vol,
-        {"spacing": sp, "isovalue": volumes.BONE_ISOVALUE},
-        volumes.PHANTOM_EULER,
-    )
+    vol, kw = input_volume.noisy_torus(2.0)
+    out["noisy blurred torus 80^3"] = (vol, kw, [0])
+    vol, kw = input_volume.phantom(1.0)
+    out["CT phantom 48x48x32"] = (vol, kw, volumes.PHANTOM_EULER)
     n = 30
     p = volumes.grid((n, n, n), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0))
     vol = p[..., 2] + 0.2 * p[..., 0] - 0.1 * p[..., 1]

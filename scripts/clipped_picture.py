@@ -19,18 +19,14 @@ import rdmesh
 from rdmesh.topology.complex import complex_status
 
 ROOT = Path(__file__).resolve().parent.parent
-GYROID = "sin(3*x)*cos(3*y) + sin(3*y)*cos(3*z) + sin(3*z)*cos(3*x)"
+sys.path.insert(0, str(ROOT / "tests"))
 
-
-def _torus(p):
-    q = np.sqrt((p[:, 0] - 1.0) ** 2 + p[:, 1] ** 2) - 0.6
-    return q * q + p[:, 2] ** 2 - 0.04
-
+from clipped_surfaces import GYROID, cylinder, plane, torus_off_centre  # noqa: E402
 
 CASES = {
-    "plane (R=1, r_b=0.1)": (lambda p: p[:, 2] - 0.3 - 0.1 * p[:, 0], 1.0, 0.1),
-    "cylinder (R=1, r_b=0.08)": (lambda p: p[:, 0] ** 2 + p[:, 1] ** 2 - 0.25, 1.0, 0.08),
-    "torus cut (R=1, r_b=0.05)": (_torus, 1.0, 0.05),
+    "plane (R=1, r_b=0.1)": (plane, 1.0, 0.1),
+    "cylinder (R=1, r_b=0.08)": (cylinder, 1.0, 0.08),
+    "torus cut (R=1, r_b=0.05)": (torus_off_centre, 1.0, 0.05),
     "gyroid (R=2, r_b=0.2)": (GYROID, 2.0, 0.2),
     "gyroid (R=2, default r_b=0.1)": (GYROID, 2.0, None),
 }

@@ -6,26 +6,10 @@ import numpy as np
 import pytest
 import rdmesh
 import trimesh
+from clipped_surfaces import GYROID, cylinder, plane, torus_off_centre
 from rdmesh.cli import main
 from rdmesh.sampling.boundary import boundary_curve
 from rdmesh.topology.complex import boundary_loops, complex_status
-
-GYROID = "sin(3*x)*cos(3*y) + sin(3*y)*cos(3*z) + sin(3*z)*cos(3*x)"
-
-
-def _plane(p):
-    return p[:, 2] - 0.3 - 0.1 * p[:, 0]
-
-
-def _cylinder(p):
-    return p[:, 0] ** 2 + p[:, 1] ** 2 - 0.25
-
-
-def _torus_off_centre(p):
-    """A torus (radii 0.6 and 0.2) centred at (1, 0, 0): the unit ball holds
-    one piece of its tube, an annulus."""
-    q = np.sqrt((p[:, 0] - 1.0) ** 2 + p[:, 1] ** 2) - 0.6
-    return q * q + p[:, 2] ** 2 - 0.04
 
 
 def _boundary(m: rdmesh.SurfaceMesh) -> tuple[np.ndarray, np.ndarray]:
@@ -68,13 +52,13 @@ def _check_clipped(m, f, centre, radius, angle_bound=30.0):
 
 @pytest.fixture(scope="module")
 def disk():
-    s = rdmesh.ImplicitSurface(_plane, ((0, 0, 0), 1.0))
+    s = rdmesh.ImplicitSurface(plane, ((0, 0, 0), 1.0))
     return s, rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.1)
 
 
 def test_plane_through_the_sphere_is_a_disk(disk):
     s, m = disk
-    _check_clipped(m, _plane, (0, 0, 0), 1.0)
+    _check_clipped(m, plane, (0, 0, 0), 1.0)
     topo = m.topology()
     assert topo["components"] == 1
     assert topo["euler"] == [1]
@@ -105,9 +89,9 @@ def test_report_and_summary_say_boundary_and_not_certified(disk):
 
 
 def test_cylinder_longer_than_the_domain_is_an_annulus():
-    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+    s = rdmesh.ImplicitSurface(cylinder, ((0, 0, 0), 1.0))
     m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.08)
-    _check_clipped(m, _cylinder, (0, 0, 0), 1.0)
+    _check_clipped(m, cylinder, (0, 0, 0), 1.0)
     topo = m.topology()
     assert (topo["components"], topo["euler"], topo["boundary_loops"]) == (1, [0], [2])
     # Two circles of radius 0.5 at z = +-sqrt(0.75).
@@ -118,9 +102,9 @@ def test_cylinder_longer_than_the_domain_is_an_annulus():
 
 
 def test_torus_cut_by_the_sphere_is_an_annulus():
-    s = rdmesh.ImplicitSurface(_torus_off_centre, ((0, 0, 0), 1.0))
+    s = rdmesh.ImplicitSurface(torus_off_centre, ((0, 0, 0), 1.0))
     m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.05)
-    _check_clipped(m, _torus_off_centre, (0, 0, 0), 1.0)
+    _check_clipped(m, torus_off_centre, (0, 0, 0), 1.0)
     topo = m.topology()
     assert (topo["components"], topo["euler"], topo["boundary_loops"]) == (1, [0], [2])
 
@@ -145,7 +129,7 @@ def test_gyroid_in_a_sphere_default_bounds():
 
 
 def test_same_seed_same_mesh():
-    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+    s = rdmesh.ImplicitSurface(cylinder, ((0, 0, 0), 1.0))
     a = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.15, seed=3)
     b = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.15, seed=3)
     assert np.array_equal(a.vertices, b.vertices)
@@ -153,7 +137,7 @@ def test_same_seed_same_mesh():
 
 
 def test_distance_bound_tightens_the_curve_sampling():
-    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+    s = rdmesh.ImplicitSurface(cylinder, ((0, 0, 0), 1.0))
     loose = boundary_curve(s, 0.3)
     tight = boundary_curve(s, 0.3, distance=1e-3)
     assert loose.n_loops == tight.n_loops == 2
@@ -165,7 +149,7 @@ def test_distance_bound_tightens_the_curve_sampling():
 
 @pytest.mark.parametrize("topology", ["manifold", "non-manifold"])
 def test_other_topologies_refuse_a_clipped_surface(topology):
-    s = rdmesh.ImplicitSurface(_plane, ((0, 0, 0), 1.0))
+    s = rdmesh.ImplicitSurface(plane, ((0, 0, 0), 1.0))
     with pytest.raises(rdmesh.BoundingSphereError, match="manifold-with-boundary"):
         rdmesh.mesh_surface(s, topology=topology, radius_bound=0.1)
 
@@ -218,12 +202,12 @@ def test_cli_writes_a_mesh_with_boundary(tmp_path, capsys):
 def test_boundary_follows_the_curve_within_the_distance_bound():
     """Cylinder of radius 0.5: the boundary circles are bent enough that the
     distance bound, not the size bound, sets the boundary's chords."""
-    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+    s = rdmesh.ImplicitSurface(cylinder, ((0, 0, 0), 1.0))
     bound = 2e-3
     m = rdmesh.mesh_surface(
         s, topology="manifold-with-boundary", radius_bound=0.15, distance_bound=bound
     )
-    _check_clipped(m, _cylinder, (0, 0, 0), 1.0)
+    _check_clipped(m, cylinder, (0, 0, 0), 1.0)
     edges, _ = _boundary(m)
     mid = 0.5 * (m.vertices[edges[:, 0]] + m.vertices[edges[:, 1]])
     # The curve point nearest each midpoint: on the same circle z = const.
@@ -248,13 +232,13 @@ def test_closed_surface_with_this_topology_reports_no_boundary():
 def test_sizing_field_sets_the_boundary_spacing():
     """A sizing field that grows with |z|: the boundary circles at
     |z| = sqrt(0.75) get chords no longer than the field there."""
-    s = rdmesh.ImplicitSurface(_cylinder, ((0, 0, 0), 1.0))
+    s = rdmesh.ImplicitSurface(cylinder, ((0, 0, 0), 1.0))
 
     def field(x):
         return 0.03 + 0.1 * np.abs(x[:, 2])
 
     m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=field)
-    _check_clipped(m, _cylinder, (0, 0, 0), 1.0)
+    _check_clipped(m, cylinder, (0, 0, 0), 1.0)
     edges, _ = _boundary(m)
     a, b = m.vertices[edges[:, 0]], m.vertices[edges[:, 1]]
     length = np.linalg.norm(a - b, axis=1)

@@ -1,9 +1,12 @@
 // cgal_reference: the CGAL side of the rdmesh benchmarks.
 //
 // Meshes one of the benchmark implicit surfaces f(x,y,z) = 0 (f < 0 inside)
-// with either CGAL's Surface_mesher (make_surface_mesh) or Mesh_3
-// (make_mesh_3, facet criteria only; "mesh_3" with params::manifold(),
-// "mesh_3_fast" without it) and prints one JSON object on stdout:
+// with either CGAL's Surface_mesher (make_surface_mesh; "surface_mesher" with
+// Manifold_tag, "surface_mesher_boundary" with Manifold_with_boundary_tag,
+// which also meshes the "clipped_*" surfaces that leave their bounding
+// sphere) or Mesh_3 (make_mesh_3, facet criteria only; "mesh_3" with
+// params::manifold(), "mesh_3_fast" without it) and prints one JSON object
+// on stdout:
 //
 //   {"mesher": ..., "surface": ..., "seconds": ..., "vertices": ...,
 //    "faces": ..., "evaluations": ..., "cgal_version": ..., ...}
@@ -15,7 +18,8 @@
 // that call.
 //
 // Usage:
-//   cgal_reference --mesher surface_mesher|mesh_3|mesh_3_fast --surface NAME
+//   cgal_reference --mesher surface_mesher|surface_mesher_boundary|mesh_3|mesh_3_fast
+//                  --surface NAME
 //                  --angle A --radius R --distance D
 //                  [--error-bound E] [--seed S] [--out mesh.off]
 //   cgal_reference --mesher delaunay --points FILE
@@ -120,6 +124,22 @@ double f_blob_line(double x, double y, double z) {
   return 0.5 - s;
 }
 
+// Surfaces that leave their bounding sphere (tests/clipped_surfaces.py):
+// only "surface_mesher_boundary" meshes them, as manifolds with boundary.
+double f_clipped_gyroid(double x, double y, double z) {
+  return std::sin(3 * x) * std::cos(3 * y) + std::sin(3 * y) * std::cos(3 * z) +
+         std::sin(3 * z) * std::cos(3 * x);
+}
+
+double f_clipped_plane(double x, double, double z) { return z - 0.3 - 0.1 * x; }
+
+double f_clipped_cylinder(double x, double y, double) { return x * x + y * y - 0.25; }
+
+double f_clipped_half_torus(double x, double y, double z) {
+  const double q = std::sqrt(sq(x - 1.0) + y * y) - 0.6;
+  return q * q + z * z - 0.04;
+}
+
 // Global evaluation counter.  The meshers run sequentially (no TBB, no
 // CGAL_CONCURRENT_MESH_3), so a plain integer is enough.
 std::uint64_t g_evaluations = 0;
@@ -166,6 +186,12 @@ struct Surface_entry {
   // CGAL's genuine result at that size, reported as such ("components").
   std::array<double, 3> centre;
   double radius;
+  // The surface crosses the sphere: not checked, meshed with boundary only.
+  // Surface_mesher's oracle clips every dual to the sphere, and its initial
+  // points come from segments between the centre (moved at random while a
+  // segment finds no sign change) and the sphere, so f(centre) < 0 is not
+  // needed.
+  bool clipped = false;
 };
 
 const std::map<std::string, Surface_entry>& surfaces() {
@@ -178,6 +204,13 @@ const std::map<std::string, Surface_entry>& surfaces() {
       {"tanglecube", {f_tanglecube, counted<f_tanglecube>, {1.25, 1.25, 1.25}, 6.0}},
       {"two_spheres", {f_two_spheres, counted<f_two_spheres>, {1.05, 0.0, 0.0}, 3.2}},
       {"blob_line", {f_blob_line, counted<f_blob_line>, {0.0, 0.0, 0.0}, 2.0}},
+      {"clipped_gyroid",
+       {f_clipped_gyroid, counted<f_clipped_gyroid>, {0.0, 0.0, 0.0}, 2.0, true}},
+      {"clipped_plane", {f_clipped_plane, counted<f_clipped_plane>, {0.0, 0.0, 0.0}, 1.0, true}},
+      {"clipped_cylinder",
+       {f_clipped_cylinder, counted<f_clipped_cylinder>, {0.0, 0.0, 0.0}, 1.0, true}},
+      {"clipped_half_torus",
+       {f_clipped_half_torus, counted<f_clipped_half_torus>, {0.0, 0.0, 0.0}, 1.0, true}},
   };
   return table;
 }
@@ -219,15 +252,19 @@ struct Options {
 };
 
 const char* const kUsage =
-    "usage: cgal_reference --mesher surface_mesher|mesh_3|mesh_3_fast --surface NAME\n"
+    "usage: cgal_reference --mesher surface_mesher|surface_mesher_boundary|mesh_3|mesh_3_fast\n"
+    "                      --surface NAME\n"
     "                      --angle A --radius R --distance D\n"
     "                      [--error-bound E] [--seed S] [--out mesh.off]\n"
     "       cgal_reference --mesher delaunay --points FILE\n"
+    "  surface_mesher: make_surface_mesh with Manifold_tag;\n"
+    "  surface_mesher_boundary: with Manifold_with_boundary_tag\n"
     "  mesh_3: make_mesh_3 with params::manifold(); mesh_3_fast: without it\n"
     "  delaunay: time Delaunay_triangulation_3(begin, end) of the points of FILE\n"
     "            (x y z per line)\n"
     "  NAME: sphere ellipsoid torus thin_torus double_torus tanglecube\n"
-    "        two_spheres blob_line\n"
+    "        two_spheres blob_line; clipped by their sphere (surface_mesher_boundary\n"
+    "        only): clipped_gyroid clipped_plane clipped_cylinder clipped_half_torus\n"
     "  A: minimum facet angle bound in degrees, 0 < A < 90 (CGAL guarantees\n"
     "     termination only for A <= 30)\n"
     "  R: facet circumradius bound (Surface_mesher radius, Mesh_3 facet_size) > 0\n"
@@ -288,10 +325,11 @@ Options parse_args(int argc, char** argv) {
       value = argv[++i];
     }
     if (arg == "--mesher") {
-      if (value != "surface_mesher" && value != "mesh_3" && value != "mesh_3_fast" &&
-          value != "delaunay")
+      if (value != "surface_mesher" && value != "surface_mesher_boundary" &&
+          value != "mesh_3" && value != "mesh_3_fast" && value != "delaunay")
         throw Usage_error{"unknown mesher '" + value +
-                          "' (surface_mesher, mesh_3, mesh_3_fast or delaunay)"};
+                          "' (surface_mesher, surface_mesher_boundary, mesh_3, mesh_3_fast"
+                          " or delaunay)"};
       o.mesher = value;
     } else if (arg == "--surface") {
       if (surfaces().count(value) == 0) throw Usage_error{"unknown surface '" + value + "'"};
@@ -333,6 +371,9 @@ Options parse_args(int argc, char** argv) {
   if (!have_angle) throw Usage_error{"--angle is required"};
   if (!have_radius) throw Usage_error{"--radius is required"};
   if (!have_distance) throw Usage_error{"--distance is required"};
+  if (surfaces().at(o.surface).clipped && o.mesher != "surface_mesher_boundary")
+    throw Usage_error{"surface '" + o.surface +
+                      "' leaves its bounding sphere: only --mesher surface_mesher_boundary"};
   return o;
 }
 
@@ -369,7 +410,10 @@ std::string check_bounding_sphere(const Surface_entry& s) {
 // wall time of the meshing call in seconds.
 // ---------------------------------------------------------------------------
 
-double run_surface_mesher(const Options& o, const Surface_entry& s, Mesh& mesh) {
+// Surface_mesher with Manifold_tag, or with Manifold_with_boundary_tag
+// (`boundary`): then the surface may cross the sphere, whose inside part is
+// meshed with a boundary where the oracle clips the duals.
+double run_surface_mesher(const Options& o, const Surface_entry& s, Mesh& mesh, bool boundary) {
   using Tr = CGAL::Surface_mesh_default_triangulation_3;
   using C2t3 = CGAL::Complex_2_in_triangulation_3<Tr>;
   using GT = Tr::Geom_traits;
@@ -386,7 +430,10 @@ double run_surface_mesher(const Options& o, const Surface_entry& s, Mesh& mesh) 
 
   g_evaluations = 0;
   const auto t0 = std::chrono::steady_clock::now();
-  CGAL::make_surface_mesh(c2t3, surface, criteria, CGAL::Manifold_tag());
+  if (boundary)
+    CGAL::make_surface_mesh(c2t3, surface, criteria, CGAL::Manifold_with_boundary_tag());
+  else
+    CGAL::make_surface_mesh(c2t3, surface, criteria, CGAL::Manifold_tag());
   const auto t1 = std::chrono::steady_clock::now();
 
   CGAL::facets_in_complex_2_to_triangle_mesh(c2t3, mesh);
@@ -526,7 +573,7 @@ int main(int argc, char** argv) {
 
   try {
     const Surface_entry& s = surfaces().at(o.surface);
-    const std::string bad = check_bounding_sphere(s);
+    const std::string bad = s.clipped ? std::string() : check_bounding_sphere(s);
     if (!bad.empty()) {
       std::cerr << "cgal_reference: bounding sphere of '" << o.surface << "' unusable: " << bad
                 << "\n";
@@ -539,9 +586,10 @@ int main(int argc, char** argv) {
     CGAL::Random mesh_3_rng(o.seed);
 
     Mesh mesh;
-    const double seconds = (o.mesher == "surface_mesher") ? run_surface_mesher(o, s, mesh)
-                                                          : run_mesh_3(o, s, mesh, mesh_3_rng,
-                                                                       o.mesher == "mesh_3");
+    const bool sm = o.mesher == "surface_mesher" || o.mesher == "surface_mesher_boundary";
+    const double seconds =
+        sm ? run_surface_mesher(o, s, mesh, o.mesher == "surface_mesher_boundary")
+           : run_mesh_3(o, s, mesh, mesh_3_rng, o.mesher == "mesh_3");
     const std::uint64_t evaluations = g_evaluations;
 
     // Sanity information on the output surface (not timed).

@@ -1,0 +1,237 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Volumes as suite rows: rdmesh.VolumeSurface (cubic) against marching cubes.
+
+Cases (volumes of known topology, from ``tests/volumes.py``):
+
+- ``torus volume``: the built-in torus's ``-f`` sampled on a grid (40^3 at
+  scale 1);
+- ``noisy torus volume``: the same with Gaussian noise, then blurred
+  (40^3 at scale 1; ``benchmarks/volume.py`` uses scale 2, 80^3);
+- ``CT phantom``: the small CT-like phantom (48x48x32 at scale 1; three
+  bones, Euler characteristics 0, 2, 2).
+
+A target vertex count sets the *scale* of the volume (samples per axis times
+the scale, the same physical object; the phantom's blur in physical units,
+the noisy torus's one sample), so
+that marching cubes at the volume's own resolution gives about that many
+vertices, never below the case's smallest scale (where its topology is
+known); rdmesh meshes the same volume with radius bound = distance bound
+``r = sqrt(0.7 area / size)``.
+
+Meshers: ``rdmesh`` (``VolumeSurface``, cubic B-spline, closed by the box)
+and ``marching_cubes`` (``skimage.measure.marching_cubes`` on the samples).
+CGAL's gray-level image mesher is not run: it reads images through CGAL's
+ImageIO, which the reference program does not build.
+
+Quality: the suite's fields, the Hausdorff distance to the cubic interpolant
+(``metrics.hausdorff``: reference points on it, Newton projection onto it),
+and the Euler characteristic of each component against the known ones.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cache, lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from inputs import VERTICES_PER_AREA, InputKind, quality_entry
+from meshfile import save_mesh
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+import volumes  # noqa: E402
+
+__all__ = ["CASES", "INPUT", "VolumeCase", "noisy_torus", "phantom", "torus"]
+
+#: The box the tori are sampled over.
+TORUS_BOX = ((-1.6, -1.6, -0.6), (1.6, 1.6, 0.6))
+#: Marching cubes vertices per (area / spacing^2) (as ``meshers.py`` uses).
+_MC_DENSITY = 1.5
+
+
+def torus(scale: float = 1.0) -> tuple[np.ndarray, dict]:
+    """The built-in torus sampled on ``round(40 scale)`` samples per axis.
+
+    Returns ``(volume, VolumeSurface keywords)``.
+    """
+    import rdmesh
+
+    n = round(40 * scale)
+    vol, sp, org = volumes.sample(rdmesh.surfaces.torus(), *TORUS_BOX, n)
+    return vol, {"spacing": sp, "origin": org, "isovalue": 0.0}
+
+
+def noisy_torus(scale: float = 1.0) -> tuple[np.ndarray, dict]:
+    """:func:`torus` plus Gaussian noise (0.02, seeded), blurred by one sample."""
+    from scipy import ndimage
+
+    vol, kw = torus(scale)
+    rng = np.random.default_rng(4)
+    vol = ndimage.gaussian_filter(vol + rng.normal(0, 0.02, vol.shape), 1.0)
+    return vol, kw
+
+
+def phantom(scale: float = 1.0) -> tuple[np.ndarray, dict]:
+    """The CT-like phantom (``tests/volumes.py``) at ``scale`` times 48x48x32 samples.
+
+    The same physical size (47 x 47 x 46.5) and blur (1 sample at scale 1).
+    """
+    base_shape = np.array([48, 48, 32])
+    base_spacing = np.array([1.0, 1.0, 1.5])
+    shape = np.round((base_shape - 1) * scale).astype(int) + 1
+    spacing = base_spacing * (base_shape - 1) / (shape - 1)
+    vol, sp = volumes.phantom(
+        tuple(int(s) for s in shape), spacing, blur=base_spacing.min() / spacing.min()
+    )
+    return vol, {"spacing": sp, "isovalue": volumes.BONE_ISOVALUE}
+
+
+@dataclass(frozen=True)
+class VolumeCase:
+    """A volume of known topology: its builder, Euler characteristic per
+    component and the smallest scale at which that topology is sure."""
+
+    build: Callable[[float], tuple[np.ndarray, dict]]
+    euler: tuple[int, ...]
+    min_scale: float
+
+
+CASES = {
+    "torus volume": VolumeCase(torus, (0,), 0.6),
+    "noisy torus volume": VolumeCase(noisy_torus, (0,), 0.6),
+    "CT phantom": VolumeCase(phantom, tuple(volumes.PHANTOM_EULER), 1.0),
+}
+
+
+def _marching_cubes(vol: np.ndarray, kw: dict, origin) -> tuple[np.ndarray, np.ndarray]:
+    """skimage's marching cubes of the volume, outward, in world coordinates."""
+    from skimage.measure import marching_cubes
+
+    v, f, _, _ = marching_cubes(vol, kw["isovalue"], spacing=tuple(kw["spacing"]))
+    # skimage orients towards greater values (inside here); rdmesh outward.
+    return v + np.asarray(origin, float), f[:, ::-1].astype(np.int64)
+
+
+@cache
+def _base(case: str) -> tuple[int, float]:
+    """(marching cubes vertices, isosurface area) of ``case`` at scale 1."""
+    from metrics import mesh_area
+
+    vol, kw = CASES[case].build(1.0)
+    v, f = _marching_cubes(vol, kw, kw.get("origin", (0, 0, 0)))
+    return len(v), mesh_area(v, f)
+
+
+@cache
+def _surface(case: str, scale: float):
+    """(volume, keywords, cubic VolumeSurface) of ``case`` at ``scale``."""
+    import rdmesh
+
+    vol, kw = CASES[case].build(scale)
+    return vol, kw, rdmesh.VolumeSurface(vol, **kw)
+
+
+class VolumeInput(InputKind):
+    """Volumes of known topology: rdmesh (cubic) against marching cubes."""
+
+    name = "volume"
+    meshers = ("rdmesh", "marching_cubes")
+    labels = {"rdmesh": "rdmesh (VolumeSurface, cubic)", "marching_cubes": "marching cubes"}
+
+    def cases(self) -> tuple[str, ...]:
+        return tuple(CASES)
+
+    def check(self, mesher: str) -> str | None:
+        try:
+            import skimage  # noqa: F401
+        except ImportError as exc:
+            return f"scikit-image is not installed ({exc})"
+        return None
+
+    def params(self, case: str, size: int) -> dict[str, Any]:
+        n_base, area = _base(case)
+        scale = max(CASES[case].min_scale, math.sqrt(size / n_base))
+        scale = round(scale, 3)
+        vol, _, _ = _surface(case, scale)
+        r = math.sqrt(VERTICES_PER_AREA * area / size)
+        return {"scale": scale, "shape": list(vol.shape), "radius": r, "distance": r}
+
+    def run(self, mesher: str, spec: dict) -> dict[str, Any]:
+        import rdmesh
+        from meshers import _maxrss_mb
+
+        vol, kw, s = _surface(spec["case"], spec["scale"])
+        base = _maxrss_mb()
+        if mesher == "rdmesh":
+            t0 = time.perf_counter()
+            m = rdmesh.mesh_surface(
+                s,
+                angle_bound=spec["angle"],
+                radius_bound=spec["radius"],
+                distance_bound=spec["distance"],
+                seed=spec["seed"],
+            )
+            seconds = time.perf_counter() - t0
+            v, f = m.vertices, m.faces
+            evaluations = int(m.stats.get("evaluations", 0))
+            extra = {"complete": bool(m.complete), "rounds": m.stats.get("rounds")}
+        else:
+            import skimage.measure  # noqa: F401  (imported before the clock starts)
+
+            t0 = time.perf_counter()
+            v, f = _marching_cubes(vol, kw, s.origin)
+            seconds = time.perf_counter() - t0
+            evaluations, extra = int(vol.size), {"samples": int(vol.size)}
+        save_mesh(spec.get("out"), v, f)
+        return {
+            "seconds": seconds,
+            "vertices": int(len(np.unique(f))),
+            "faces": int(len(f)),
+            "evaluations": evaluations,
+            "baseline_rss_mb": base,
+            "extra": {"shape": list(vol.shape), **extra},
+        }
+
+    def quality(
+        self,
+        case: str,
+        params: dict,
+        vertices,
+        faces,
+        *,
+        reference_samples: int,
+        seed: int,
+        angle: float,
+    ) -> dict[str, Any]:
+        from metrics import hausdorff
+
+        _, _, s = _surface(case, params["scale"])
+        ref = _reference(case, params["scale"], reference_samples)
+        euler = list(CASES[case].euler)
+        h = hausdorff(s, vertices, faces, ref, seed=seed) if len(faces) else None
+        expected = {
+            "expected_components": len(euler),
+            "expected_euler": sum(euler),
+            "expected_per_component": euler,
+        }
+        return quality_entry(vertices, faces, h, angle, expected, voxel=float(s.spacing.min()))
+
+
+@lru_cache(maxsize=2)
+def _reference(case: str, scale: float, n: int) -> np.ndarray:
+    """``n`` points on the cubic interpolant's isosurface (``metrics.surface_reference``)."""
+    from metrics import surface_reference
+
+    _, _, s = _surface(case, scale)
+    lo, hi = s.box
+    pad = 0.05 * (hi - lo)
+    return surface_reference(s, n, bbox=(lo - pad, hi + pad))
+
+
+INPUT = VolumeInput()

@@ -1,0 +1,220 @@
+"""The suite's other inputs (``suite.py --inputs volume remesh clipped``).
+
+The end-to-end run (one case of each input at 500 vertices, about a minute
+with the debug checks on) is ``slow``; so is the one with CGAL's
+Manifold_with_boundary_tag row, which builds the CGAL reference on a fresh
+machine.  The command line, the topology with boundary and the input
+parameters are checked in the default run.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("skimage")
+pytest.importorskip("matplotlib")
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+sys.path.insert(0, str(BENCH))
+
+import input_clipped  # noqa: E402
+import input_volume  # noqa: E402
+import metrics  # noqa: E402
+import suite  # noqa: E402
+
+SIZE = 500
+CASES = ["CT phantom", "plane disk", "torus mesh"]
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def _run(out: Path, *meshers: str) -> dict:
+    cmd = [sys.executable, str(BENCH / "suite.py"), "--out", str(out),
+           "--inputs", "volume", "remesh", "clipped", "--cases", *CASES,
+           "--sizes", str(SIZE), "--repeats", "1", "--reference-samples", "3000",
+           "--timeout", "300", "--meshers", *meshers]  # fmt: skip
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900, check=False)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    (path,) = out.glob("*.json")
+    res = json.loads(path.read_text())
+    res["_stem"] = path.stem
+    res["_stdout"] = proc.stdout
+    return res
+
+
+def _case(res: dict, surface: str, mesher: str) -> dict:
+    (c,) = [c for c in res["cases"] if c["surface"] == surface and c["mesher"] == mesher]
+    return c
+
+
+@pytest.fixture(scope="module")
+def rows(tmp_path_factory) -> tuple[Path, dict]:
+    out = tmp_path_factory.mktemp("bench-inputs")
+    return out, _run(out, "rdmesh", "marching_cubes", "input", "pymeshlab")
+
+
+@pytest.mark.slow
+def test_record_has_one_case_per_input_case_and_mesher(rows):
+    _, res = rows
+    assert res["finished"] is True
+    assert res["settings"]["inputs"] == ["volume", "remesh", "clipped"]
+    got = {(c["input"], c["surface"], c["mesher"]) for c in res["cases"]}
+    assert got == {
+        ("volume", "CT phantom", "rdmesh"),
+        ("volume", "CT phantom", "marching_cubes"),
+        ("remesh", "torus mesh", "input"),
+        ("remesh", "torus mesh", "rdmesh"),
+        ("remesh", "torus mesh", "pymeshlab"),
+        ("clipped", "plane disk", "rdmesh"),
+        ("clipped", "plane disk", "marching_cubes"),
+    }
+    for c in res["cases"]:
+        if c["status"] == "unavailable":  # pymeshlab may not be installed
+            assert c["mesher"] == "pymeshlab" and "pymeshlab" in c["note"]
+            continue
+        assert c["status"] == "ok", c
+        q = c["quality"]
+        assert q["vertices"] == c["summary"]["vertices"] > 100
+        assert sum(q["min_angle_hist"]) == q["faces"]
+        if c["mesher"] != "input":
+            assert c["summary"]["seconds"] > 0 and c["summary"]["peak_rss_mb"] > 0
+
+
+@pytest.mark.slow
+def test_phantom_rows_have_the_bones_topology(rows):
+    _, res = rows
+    rd = _case(res, "CT phantom", "rdmesh")["quality"]
+    t = rd["topology"]
+    assert sorted(t["euler_per_component"]) == [0, 2, 2]
+    assert t["closed_manifold"] is True and t["topology_ok"] is True
+    assert rd["min_angle"] >= 30.0 - 1e-9
+    # Within a voxel of the cubic interpolant.
+    assert 0 < rd["hausdorff"]["two_sided"] < rd["voxel"]
+    mc = _case(res, "CT phantom", "marching_cubes")["quality"]
+    assert sorted(mc["topology"]["euler_per_component"]) == [0, 2, 2]
+    assert mc["min_angle"] < 30.0  # marching cubes has no angle bound
+
+
+@pytest.mark.slow
+def test_clipped_disk_rows_have_one_boundary_loop(rows):
+    _, res = rows
+    rd = _case(res, "plane disk", "rdmesh")["quality"]
+    t = rd["topology"]
+    assert (t["components"], t["euler"], t["boundary_loops"]) == (1, 1, 1)
+    assert t["manifold_with_boundary"] is True and t["topology_ok"] is True
+    # rdmesh's boundary vertices lie on the sphere; interior triangles keep the bound.
+    assert rd["boundary_offset"] < 1e-9
+    assert rd["min_angle_interior"] >= 30.0 - 1e-9
+    mc = _case(res, "plane disk", "marching_cubes")["quality"]
+    assert mc["topology"]["boundary_loops"] == 1
+    assert mc["boundary_offset"] > 1e-3  # cut at grid cells, off the sphere
+
+
+@pytest.mark.slow
+def test_remesh_rows_measure_against_the_input(rows):
+    _, res = rows
+    inp = _case(res, "torus mesh", "input")
+    assert inp["quality"]["hausdorff"]["two_sided"] < 1e-12
+    assert inp["summary"]["peak_rss_mb"] is None
+    rd = _case(res, "torus mesh", "rdmesh")
+    q, r = rd["quality"], rd["params"]["radius"]
+    assert q["topology"]["topology_ok"] is True and q["min_angle"] >= 30.0 - 1e-9
+    assert 0 < q["hausdorff"]["two_sided"] < r
+
+
+@pytest.mark.slow
+def test_report_and_plots_of_the_inputs(rows):
+    out, res = rows
+    stem = res["_stem"]
+    md = (out / f"{stem}.md").read_text()
+    for heading in ("## Volumes", "## Remeshing", "## Clipped surfaces"):
+        assert heading in md
+    assert "## Calibration" not in md  # no built-in surface was run
+    assert "| CT phantom | 500 | rdmesh | ok |" in md
+    assert "[0, 2, 2] ([0, 2, 2])" in md
+    assert "| plane disk | 500 | rdmesh | ok |" in md and "| 1 (1) |" in md
+    assert "### Volumes" in res["_stdout"]
+    for name in ("volume", "remesh", "clipped"):
+        for plot in ("time", "memory", "hausdorff", "angles"):
+            png = out / f"{stem}-{name}-{plot}.png"
+            assert f"]({png.name})" in md
+            assert png.read_bytes()[:8] == PNG_MAGIC
+
+
+@pytest.mark.slow  # builds the CGAL reference on a fresh machine (a minute or two)
+def test_cgal_with_boundary_row(tmp_path):
+    cmd = [sys.executable, str(BENCH / "suite.py"), "--out", str(tmp_path),
+           "--inputs", "clipped", "--cases", "long cylinder", "--sizes", str(SIZE),
+           "--repeats", "1", "--reference-samples", "3000",
+           "--meshers", "cgal_surface_mesher"]  # fmt: skip
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900, check=False)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    (path,) = tmp_path.glob("*.json")
+    (c,) = json.loads(path.read_text())["cases"]
+    if c["status"] == "unavailable":
+        pytest.skip(f"CGAL reference not available: {c['note']}")
+    t = c["quality"]["topology"]
+    assert (t["components"], t["euler"], t["boundary_loops"]) == (1, 0, 2)
+    # CGAL's boundary is where its oracle clipped the duals: off the sphere.
+    assert c["quality"]["boundary_offset"] > 1e-3
+
+
+# ---------------------------------------------------------------------------
+# The parts
+# ---------------------------------------------------------------------------
+
+
+def test_command_line_inputs():
+    a = suite.parse_args([])
+    assert a.inputs == ["implicit"] and a.input_meshers is None and a.cases is None
+    a = suite.parse_args(["--inputs", "volume", "clipped", "--meshers", "rdmesh", "pymeshlab",
+                          "--cases", "plane disk"])  # fmt: skip
+    assert a.inputs == ["volume", "clipped"] and a.cases == ["plane disk"]
+    assert a.input_meshers == ["rdmesh", "pymeshlab"] and a.meshers == ["rdmesh"]
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [["--inputs", "images"], ["--cases", "nosuch"], ["--meshers", "pymeshlab"]],
+    ids=["input", "case", "no-implicit-mesher"],
+)
+def test_command_line_rejects_inputs(argv, capsys):
+    with pytest.raises(SystemExit) as info:
+        suite.parse_args(argv)
+    assert info.value.code == 2
+    assert "error:" in capsys.readouterr().err
+
+
+def test_topology_with_boundary():
+    # A square of two triangles: a disk, one boundary loop.
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3]])
+    t = metrics.topology_stats(v, f, 1, 1, expected_loops=1)
+    assert t["manifold_with_boundary"] and not t["closed_manifold"]
+    assert (t["boundary_loops"], t["euler"], t["topology_ok"]) == (1, 1, True)
+    # Expecting it closed (no loops given) fails; a wrong per-component list too.
+    assert metrics.topology_stats(v, f, 1, 1)["topology_ok"] is False
+    t = metrics.topology_stats(v, f, 1, 1, expected_loops=1, expected_per_component=[2])
+    assert t["topology_ok"] is False
+
+
+def test_volume_scale_never_below_the_known_topology():
+    p = input_volume.INPUT.params("CT phantom", 100)
+    assert p["scale"] == 1.0 and p["shape"] == [48, 48, 32]
+    small, big = (input_volume.INPUT.params("torus volume", n) for n in (100, 20_000))
+    assert small["scale"] == 0.6 and big["scale"] > 1.0
+    assert big["radius"] < small["radius"]
+
+
+def test_clipped_marching_cubes_stays_in_the_ball():
+    s = input_clipped.CASES["long cylinder"].surface()
+    v, f, n = input_clipped.clipped_marching_cubes(s, 0.1)
+    assert n > 0 and len(f) > 100
+    assert np.linalg.norm(v, axis=1).max() <= 1.0
+    t = metrics.topology_stats(v, f, 1, 0, expected_loops=2)
+    assert t["topology_ok"] is True
