@@ -301,6 +301,23 @@ def test_python_mesher_runs_in_a_child_process(tmp_path):
         rd.parse(res, "rdmesh on nosuch", {})
 
 
+def test_f_only_run_differentiates_f_itself():
+    """rdmesh_f_only meshes the same surface from f alone: the same topology, and
+    more evaluations (central differences) than the run with the exact gradient."""
+    args = argparse.Namespace(angle=30.0, seed=0, timeout=600)
+    case = {"surface": "torus", "size": 500, "params": {"radius": 0.2, "distance": 0.2}}
+    runs = {}
+    for name in ("rdmesh", "rdmesh_f_only"):
+        m = meshers.PythonMesher(name)
+        res = measure.run_measured(m.command(case, args, None), m.timeout(args))
+        assert res["returncode"] == 0, res["stderr"]
+        runs[name] = m.parse(res, name, {})
+        assert runs[name]["extra"]["complete"] is True
+    assert runs["rdmesh_f_only"]["evaluations"] > runs["rdmesh"]["evaluations"]
+    v_g, v_f = runs["rdmesh"]["vertices"], runs["rdmesh_f_only"]["vertices"]
+    assert abs(v_f - v_g) <= 0.1 * v_g
+
+
 def _run(status="ok", seconds=1.0, vertices=100, rss=50.0):
     return {"status": status, "seconds": seconds, "process_seconds": seconds + 1,
             "vertices": vertices, "faces": 2 * vertices - 4, "peak_rss_mb": rss,
@@ -485,6 +502,7 @@ def test_targets():
             _case("rdmesh", 10_000, 1.0, 100),  # below 100k: no targets
             _case("cgal_mesh_3", 10_000, 1.0, 50),
             _case("rdmesh", 100_000, 10.0, 500),
+            _case("rdmesh_f_only", 100_000, 12.0, 700),
             _case("cgal_mesh_3", 100_000, 25.0, 400),
             _case("cgal_mesh_3_fast", 100_000, 16.0, 600),
             _case("cgal_delaunay_floor", 100_000, 2.0, 100),
@@ -507,10 +525,19 @@ def test_targets():
     t = got[(100_000, "rdmesh time <= 3 x floor")]
     assert t["value"] == pytest.approx(5.0) and t["passed"] is False
     # The headline: rdmesh over the faster Mesh_3 setting, named.
-    (h,) = [h for h in report.headline(res) if h["size"] == 100_000]
+    h, f_only = sorted(
+        (h for h in report.headline(res) if h["size"] == 100_000), key=lambda h: h["mesher"]
+    )
     assert h["setting"] == "cgal_mesh_3_fast" and h["ratio"] == pytest.approx(0.625)
+    # With f alone (the issue's target), against the same setting.
+    assert f_only["mesher"] == "rdmesh_f_only" and f_only["ratio"] == pytest.approx(0.75)
+    t = got[(100_000, "rdmesh (f only) time <= 0.5 x Mesh_3 (no manifold)")]
+    assert t["value"] == pytest.approx(0.75) and t["passed"] is False
+    t = got[(100_000, "rdmesh (f only) peak RSS <= Mesh_3 (no manifold)")]
+    assert t["value"] == pytest.approx(700 / 600) and t["passed"] is False
     md = report.ratio_table(res)
     assert "rdmesh ÷ Mesh_3 (no manifold)" in md and "5x" in md
+    assert "| rdmesh (f only) | 12 |" in md
     t = got[(100_000, "rdmesh >= 100 x faster than pygalmesh")]
     assert t["value"] == pytest.approx(200) and t["passed"] is True
     t = got[(1_000_000, "rdmesh time <= 0.5 x Mesh_3 (manifold)")]
