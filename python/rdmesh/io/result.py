@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..refine.criteria import min_angles
-from ..topology.complex import boundary_loops, complex_status, euler_characteristics
+from ..topology.complex import complex_status, component_topology
 
 #: File formats :meth:`SurfaceMesh.save` writes (through trimesh).
 MESH_FORMATS = ("ply", "obj", "stl", "off", "glb", "gltf", "3mf", "dae")
@@ -168,8 +168,7 @@ class SurfaceMesh:
         loops assumes orientable components, which every surface embedded in
         space without self-intersection and cut by a sphere is.
         """
-        chi = euler_characteristics(self.faces, len(self.vertices))
-        loops = boundary_loops(self.faces, len(self.vertices))
+        chi, loops = component_topology(self.faces, len(self.vertices))
         return {
             "components": len(chi),
             "euler": chi,

@@ -114,36 +114,88 @@ def components(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
     count : int
     face_label : (F,) component of each face, numbered by first face.
     """
-    faces = np.asarray(faces, dtype=np.int64)
+    count, face_label, _ = _components(np.asarray(faces, dtype=np.int64), n_vertices)
+    return count, face_label
+
+
+def _components(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray, np.ndarray]:
+    """:func:`components`, and the component of each vertex (-1 where it has no face).
+
+    The graph joins each face's first vertex to the other two: its nodes are
+    the vertices, not the faces and vertices, so that it stays small (it sets
+    the peak memory of the final report).
+    """
     F = len(faces)
     if F == 0:
-        return 0, np.zeros(0, np.int64)
-    rows = np.repeat(np.arange(F), 3)
-    g = coo_matrix((np.ones(3 * F), (rows, faces.ravel() + F)), shape=(F + n_vertices,) * 2)
-    _, label = connected_components(g, directed=False)
-    face_label = label[:F]
-    # Renumber by first appearance for stable output.
-    _, first, inv = np.unique(face_label, return_index=True, return_inverse=True)
-    rank = np.argsort(np.argsort(first))
-    return len(first), rank[inv]
+        return 0, np.zeros(0, np.int64), np.full(n_vertices, -1, np.int64)
+    rows = np.empty(2 * F, np.int32)
+    cols = np.empty(2 * F, np.int32)
+    rows[:F] = rows[F:] = faces[:, 0]
+    cols[:F], cols[F:] = faces[:, 1], faces[:, 2]
+    g = coo_matrix((np.ones(2 * F, bool), (rows, cols)), shape=(n_vertices, n_vertices))
+    del rows, cols
+    k, label = connected_components(g, directed=False)
+    del g
+    # Renumber by first face, for stable output.
+    face_raw = label[faces[:, 0]]
+    raw, first = np.unique(face_raw, return_index=True)
+    rank = np.full(k, -1, np.int64)
+    rank[raw] = np.argsort(np.argsort(first))
+    return len(raw), rank[face_raw], rank[label]
+
+
+def _edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct edges of a triangle set, by sorted key ``min * n + max``,
+    and the faces of each edge."""
+    F = len(faces)
+    keys = np.empty(3 * F, np.int64)
+    for j in range(3):
+        u, v, out = faces[:, j], faces[:, (j + 1) % 3], keys[j * F : (j + 1) * F]
+        # _pair_keys written in place: one temporary per column.
+        np.minimum(u, v, out=out)
+        out *= n_vertices
+        out += np.maximum(u, v)
+    keys.sort()
+    first = np.empty(len(keys), bool)
+    first[:1] = True
+    np.not_equal(keys[1:], keys[:-1], out=first[1:])
+    start = np.flatnonzero(first)
+    del first
+    return keys[start], np.diff(start, append=len(keys))
+
+
+def component_topology(faces: np.ndarray, n_vertices: int) -> tuple[list[int], list[int]]:
+    """:func:`euler_characteristics` and :func:`boundary_loops` at once: the
+    components and edges are found once."""
+    faces = np.asarray(faces, dtype=np.int64)
+    count, face_label, vertex_label = _components(faces, n_vertices)
+    if count == 0:
+        return [], []
+    # A vertex or an edge lies in the component of any face that has it.
+    nf = np.bincount(face_label, minlength=count)
+    del face_label
+    nv = np.bincount(vertex_label[vertex_label >= 0], minlength=count)
+    edge_key, edge_count = _edges(faces, n_vertices)
+    ne = np.bincount(vertex_label[edge_key // n_vertices], minlength=count)
+    chi = [int(x) for x in nv - ne + nf]
+    # Boundary loops: components of the graph of edges in one face.
+    key = edge_key[edge_count == 1]
+    del edge_key, edge_count
+    if len(key) == 0:
+        return chi, [0] * count
+    a, b = key // n_vertices, key % n_vertices
+    g = coo_matrix((np.ones(len(key)), (a, b)), shape=(n_vertices, n_vertices))
+    _, vlabel = connected_components(g, directed=False)
+    on = np.unique(np.concatenate([a, b]))
+    # Each loop in the component of a face of one of its vertices.
+    _, first = np.unique(vlabel[on], return_index=True)
+    loops = np.bincount(vertex_label[on[first]], minlength=count)
+    return chi, [int(x) for x in loops]
 
 
 def euler_characteristics(faces: np.ndarray, n_vertices: int) -> list[int]:
     """Euler characteristic V - E + F of each component (in component order)."""
-    count, label = components(faces, n_vertices)
-    if count == 0:
-        return []
-    faces = np.asarray(faces, dtype=np.int64)
-    nf = np.bincount(label, minlength=count)
-    # A vertex or an edge lies in the component of any face that has it.
-    _, first = np.unique(faces.ravel(), return_index=True)
-    nv = np.bincount(np.repeat(label, 3)[first], minlength=count)
-    e = np.concatenate(
-        [_pair_keys(faces[:, i], faces[:, (i + 1) % 3], n_vertices) for i in range(3)]
-    )
-    _, first = np.unique(e, return_index=True)
-    ne = np.bincount(np.tile(label, 3)[first], minlength=count)
-    return [int(x) for x in nv - ne + nf]
+    return component_topology(faces, n_vertices)[0]
 
 
 def boundary_loops(faces: np.ndarray, n_vertices: int) -> list[int]:
@@ -153,20 +205,4 @@ def boundary_loops(faces: np.ndarray, n_vertices: int) -> list[int]:
     components of the graph of boundary edges (on a manifold with boundary
     every boundary vertex has two boundary edges, so each is a closed loop).
     """
-    count, label = components(faces, n_vertices)
-    if count == 0:
-        return []
-    faces = np.asarray(faces, dtype=np.int64)
-    st = complex_status(faces, n_vertices)
-    key = st.edge_key[st.edge_count == 1]
-    if len(key) == 0:
-        return [0] * count
-    a, b = key // n_vertices, key % n_vertices
-    g = coo_matrix((np.ones(len(key)), (a, b)), shape=(n_vertices, n_vertices))
-    _, vlabel = connected_components(g, directed=False)
-    on = np.unique(np.concatenate([a, b]))
-    # Each loop in the component of a face of one of its vertices.
-    vcomp = np.empty(n_vertices, np.int64)
-    vcomp[faces.ravel()] = np.repeat(label, 3)
-    loops, first = np.unique(vlabel[on], return_index=True)
-    return [int(x) for x in np.bincount(vcomp[on[first]], minlength=count)]
+    return component_topology(faces, n_vertices)[1]

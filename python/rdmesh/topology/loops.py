@@ -63,6 +63,8 @@ ITERATIONS = 8
 MONOTONE_COS = 0.5
 #: Complex edges screened at a time (bounds the test's memory).
 SCREEN_CHUNK = 1 << 14
+#: Points whose gradient is evaluated at a time by the screen.
+GRAD_CHUNK = 1 << 16
 #: A seed whose full Newton step exceeds this many polygon diameters is dropped.
 STRAY = 0.5
 
@@ -88,14 +90,38 @@ class LoopMemo:
         return (self.keys[i] == keys) & (self.prints[i] == prints)
 
     def remember(self, keys: np.ndarray, prints: np.ndarray) -> None:
+        """Add ``keys`` with their ``prints``; a key already known takes the
+        new print, and of a key given twice the first print counts."""
         if len(keys) == 0:
             return
-        k = np.concatenate([keys, self.keys])
-        p = np.concatenate([prints, self.prints])
-        o = np.argsort(k, kind="stable")  # new entries first, and they win
-        k, p = k[o], p[o]
-        first = np.r_[True, k[1:] != k[:-1]]
-        self.keys, self.prints = k[first], p[first]
+        # Sorted and merged, not concatenated with the memo and sorted again:
+        # the merge sets the peak memory of the report's loop test. Keys of
+        # complex edges come sorted and distinct: no sort then.
+        if len(keys) > 1 and not np.all(keys[1:] > keys[:-1]):
+            o = np.argsort(keys, kind="stable")
+            keys, prints = keys[o], prints[o]
+            del o
+            first = np.empty(len(keys), bool)
+            first[:1] = True
+            np.not_equal(keys[1:], keys[:-1], out=first[1:])
+            keys, prints = keys[first], prints[first]
+            del first
+        old = np.ones(len(self.keys), bool)
+        old[_find(self.keys, keys)] = False
+        kept = self.keys[old]
+        # Destinations of the new entries in the merged order; the old ones
+        # that stay fill the rest, in their order.
+        at = np.searchsorted(kept, keys) + np.arange(len(keys))
+        rest = np.ones(len(keys) + len(kept), bool)
+        rest[at] = False
+        merged_keys = np.empty(len(rest), np.result_type(self.keys, keys))
+        merged_keys[at] = keys
+        merged_keys[rest] = kept
+        del kept
+        merged_prints = np.empty(len(rest), np.result_type(self.prints, prints))
+        merged_prints[at] = prints
+        merged_prints[rest] = self.prints[old]
+        self.keys, self.prints = merged_keys, merged_prints
 
 
 @dataclass
@@ -143,8 +169,9 @@ def loop_test(
     fa_all, fb_all = fa_all[pos], fb_all[pos]
     need = np.zeros(len(tri), bool)
     need[fa_all] = need[fb_all] = True
-    slot = np.cumsum(need) - 1
-    g = surface.grad(centres[need])
+    slot = np.cumsum(need, dtype=np.int32)
+    slot -= 1
+    g = _gradients(surface, centres, np.flatnonzero(need))
     # Screen in chunks: the temporaries of all complex edges at once would
     # dominate the peak memory of a large run.
     rests, plain_keys, plain_prints = [], [], []
@@ -167,10 +194,14 @@ def loop_test(
         plain_prints.append(prints2[plain])
         rest = ~plain
         rests.append((e2[rest], a[rest], b[rest], ga[rest], gb[rest], prints2[rest]))
-    del fa_all, fb_all, need, slot, g
+    del pos, fa_all, fb_all, need, slot, g
     n_plain = sum(len(k) for k in plain_keys)
     if plain_keys:
-        memo.remember(np.concatenate(plain_keys), np.concatenate(plain_prints))
+        # The chunks go before the memo merges: this merge sets the test's peak.
+        k, p = np.concatenate(plain_keys), np.concatenate(plain_prints)
+        del plain_keys, plain_prints
+        memo.remember(k, p)
+        del k, p
     if rests:
         e2, a, b, ga, gb, prints2 = (np.concatenate(c) for c in zip(*rests, strict=True))
     else:
@@ -209,6 +240,14 @@ def loop_test(
     return LoopViolations(edges[bad], x, r)
 
 
+def _find(table: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """Indices in the sorted array ``table`` of the ``keys`` that occur in it."""
+    if len(table) == 0:
+        return np.zeros(0, np.int64)
+    i = np.minimum(np.searchsorted(table, keys), len(table) - 1)
+    return i[table[i] == keys]
+
+
 def _sorted_has(table: np.ndarray, keys: np.ndarray) -> np.ndarray:
     """Whether each key occurs in the sorted array ``table``."""
     if len(table) == 0:
@@ -224,13 +263,25 @@ _W = np.array([0.5772156649, 0.2718281828, 0.3141592653])
 def _crossing_facets(status, n_facets):
     """For each edge of the complex, its smallest and largest facet index
     (the two restricted facets of an edge with 2)."""
-    fe = status.facet_edges.ravel()
-    f_of = np.repeat(np.arange(n_facets, dtype=np.int32), 3)
+    f_of = np.arange(n_facets, dtype=np.int32)
     first = np.full(len(status.edge_key), n_facets, np.int32)
     last = np.full(len(status.edge_key), -1, np.int32)
-    np.minimum.at(first, fe, f_of)
-    np.maximum.at(last, fe, f_of)
+    # A column at a time: no (F, 3) copies of the facets' edges.
+    for j in range(3):
+        fe = status.facet_edges[:, j]
+        np.minimum.at(first, fe, f_of)
+        np.maximum.at(last, fe, f_of)
     return first, last
+
+
+def _gradients(surface, points, rows):
+    """``surface.grad(points[rows])``, in chunks of :data:`GRAD_CHUNK` rows
+    (the gradient's temporaries for every facet at once would set the
+    test's peak memory)."""
+    g = np.empty((len(rows), 3))
+    for lo in range(0, len(rows), GRAD_CHUNK):
+        g[lo : lo + GRAD_CHUNK] = surface.grad(points[rows[lo : lo + GRAD_CHUNK]])
+    return g
 
 
 def _end_slopes(ga, gb, e2):

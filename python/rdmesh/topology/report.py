@@ -17,7 +17,7 @@ from ..sampling.boundary import BoundaryCurve
 from ..sampling.critical import CriticalPoints
 from ..sampling.discovery import Discovery
 from ..sampling.probes import Probes
-from .complex import boundary_loops, euler_characteristics
+from .complex import component_topology
 from .regions import describe_regions, regions
 from .singular import singular_points
 from .snapshot import Snapshot
@@ -133,8 +133,7 @@ def topology_report(
         _prove_edges(tests, snap.test("proven_voronoi_edge"), link)
         for kind in ("voronoi_loop", "silhouette"):
             _prove_test(tests[kind], snap.test("proven_" + kind), link)
-    chi = euler_characteristics(faces, n_mesh_vertices)
-    loops = boundary_loops(faces, n_mesh_vertices)
+    chi, loops = component_topology(faces, n_mesh_vertices)
     # The output faces are the restricted facets: every edge in two faces is
     # the Voronoi-facet test, one fan per vertex is the disk test.
     closed = bool(len(faces) and tests["voronoi_facet"]["held"] and tests["disk"]["held"])
