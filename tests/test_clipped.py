@@ -245,3 +245,34 @@ def test_sizing_field_sets_the_boundary_spacing():
     assert (length <= field(0.5 * (a + b)) * (1 + 1e-6)).all()
     # Not the field's smallest value on the sphere (0.03): the local one.
     assert length.max() > 0.05
+
+
+@pytest.mark.parametrize("h", [0.5, 0.1, 0.02])
+def test_sphere_grid_is_a_closed_triangulation(h):
+    from rdmesh.sampling.boundary import sphere_grid
+
+    u, ends, tri_edges = sphere_grid(h)
+    np.testing.assert_allclose(np.linalg.norm(u, axis=1), 1.0, atol=1e-12)
+    # Every edge in exactly two triangles, each triangle spans three points,
+    # and V - E + T = 2: a closed triangulation of the sphere.
+    assert np.all(np.bincount(tri_edges.ravel(), minlength=len(ends)) == 2)
+    corners = np.sort(ends[tri_edges].reshape(len(tri_edges), 6), axis=1)
+    assert np.all((corners[:, ::2] == corners[:, 1::2]).all(axis=1))
+    assert len(np.unique(corners[:, ::2], axis=1)[0]) == 3
+    assert len(u) - len(ends) + len(tri_edges) == 2
+    assert np.linalg.norm(u[ends[:, 0]] - u[ends[:, 1]], axis=1).max() <= 1.5 * h
+
+
+def test_arc_root_on_a_grid_point_is_that_point():
+    """f rounds to 0 at an arc's end (the curve runs through a grid point):
+    the crossing is that end, never NaN."""
+    from rdmesh.sampling.boundary import _arc_roots
+
+    s = rdmesh.ImplicitSurface(lambda p: p[:, 2] - 0.6, ((0, 0, 0), 1.0))
+    p = np.array([[0.8, 0.0, 0.6], [0.0, 0.0, 1.0]])
+    q = np.array([[0.0, 0.8, 0.6], [1.0, 0.0, 0.0]])
+    x = _arc_roots(s, p, q)
+    assert np.all(np.isfinite(x))
+    # The first arc runs along the curve: the crossing is one of its ends.
+    assert min(np.abs(x[0] - p[0]).max(), np.abs(x[0] - q[0]).max()) < 1e-12
+    np.testing.assert_allclose(s(x), 0.0, atol=1e-9)

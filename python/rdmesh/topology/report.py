@@ -209,8 +209,8 @@ def _boundary(curve: BoundaryCurve, chi: list[int], loops: list[int]) -> dict[st
         "curve_spacing": curve.size,
         "genus": genus,
         "euler_consistent": consistent,
-        "basis": "sampled: the curve f = 0 on the sphere was traced on a Fibonacci point "
-        f"set at spacing {curve.spacing:.3g}; loops smaller than that can be missed",
+        "basis": "sampled: the curve f = 0 on the sphere was traced on a point grid "
+        f"of spacing {curve.spacing:.3g}; loops smaller than that can be missed",
     }
 
 
