@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from inputs import VERTICES_PER_AREA, InputKind, quality_entry
 from meshers import Cgal, build_cgal
-from meshfile import save_mesh
+from meshfile import mesh_run
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
@@ -162,15 +162,15 @@ class ClippedInput(InputKind):
             v, f, evaluations = clipped_marching_cubes(s, spec["spacing"])
             seconds = time.perf_counter() - t0
             extra = {"grid_points": int(evaluations)}
-        save_mesh(spec.get("out"), v, f)
-        return {
-            "seconds": seconds,
-            "vertices": int(len(np.unique(f))),
-            "faces": int(len(f)),
-            "evaluations": int(evaluations),
-            "baseline_rss_mb": base,
-            "extra": extra,
-        }
+        return mesh_run(
+            spec.get("out"),
+            v,
+            f,
+            seconds=seconds,
+            evaluations=evaluations,
+            baseline_rss_mb=base,
+            extra=extra,
+        )
 
     def quality(
         self,

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 import remesh
 from inputs import VERTICES_PER_AREA, InputKind, quality_entry
-from meshfile import save_mesh
+from meshfile import mesh_run
 
 __all__ = ["INPUT", "RemeshInput", "input_mesh"]
 
@@ -123,15 +123,15 @@ class RemeshInput(InputKind):
             ov, of, seconds = remesh.run_pygalmesh(
                 v, f, spec["edge"], spec["radius"], spec["distance"]
             )
-        save_mesh(spec.get("out"), ov, of)
-        out = {
-            "seconds": seconds,
-            "vertices": int(len(np.unique(of))),
-            "faces": int(len(of)),
-            "evaluations": int(evaluations),
-            "baseline_rss_mb": base,
-            "extra": extra,
-        }
+        out = mesh_run(
+            spec.get("out"),
+            ov,
+            of,
+            seconds=seconds,
+            evaluations=evaluations,
+            baseline_rss_mb=base,
+            extra=extra,
+        )
         if mesher == "input":
             out["peak_rss_mb"] = None
         return out

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 from inputs import VERTICES_PER_AREA, InputKind, quality_entry
-from meshfile import save_mesh
+from meshfile import mesh_run
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
@@ -188,15 +188,15 @@ class VolumeInput(InputKind):
             v, f = _marching_cubes(vol, kw, s.origin)
             seconds = time.perf_counter() - t0
             evaluations, extra = int(vol.size), {"samples": int(vol.size)}
-        save_mesh(spec.get("out"), v, f)
-        return {
-            "seconds": seconds,
-            "vertices": int(len(np.unique(f))),
-            "faces": int(len(f)),
-            "evaluations": evaluations,
-            "baseline_rss_mb": base,
-            "extra": {"shape": list(vol.shape), **extra},
-        }
+        return mesh_run(
+            spec.get("out"),
+            v,
+            f,
+            seconds=seconds,
+            evaluations=evaluations,
+            baseline_rss_mb=base,
+            extra={"shape": list(vol.shape), **extra},
+        )
 
     def quality(
         self,

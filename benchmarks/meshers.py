@@ -30,7 +30,7 @@ from typing import Any
 
 from calibration import radius_for
 from measure import last_line, run_measured
-from meshfile import save_mesh
+from meshfile import mesh_run
 from record import fmt_size, jsonable
 
 __all__ = ["CGAL_MESHERS", "FLOOR", "MESHERS", "adapters", "build_cgal", "child_main"]
@@ -74,7 +74,6 @@ def _maxrss_mb() -> float:
 
 def _run_rdmesh(spec: dict, surface, **options) -> dict:
     """One timed rdmesh run of ``surface`` with the spec's criteria."""
-    import numpy as np
     import rdmesh
 
     base = _maxrss_mb()
@@ -88,14 +87,14 @@ def _run_rdmesh(spec: dict, surface, **options) -> dict:
         **options,
     )
     seconds = time.perf_counter() - t0
-    save_mesh(spec.get("out"), m.vertices, m.faces)
-    return {
-        "seconds": seconds,
-        "vertices": int(len(np.unique(m.faces))),
-        "faces": int(len(m.faces)),
-        "evaluations": int(m.stats.get("evaluations", 0)),
-        "baseline_rss_mb": base,
-        "extra": {
+    return mesh_run(
+        spec.get("out"),
+        m.vertices,
+        m.faces,
+        seconds=seconds,
+        evaluations=m.stats.get("evaluations", 0),
+        baseline_rss_mb=base,
+        extra={
             "rounds": m.stats.get("rounds"),
             "stats_seconds": m.stats.get("seconds"),
             "phase_seconds": m.stats.get("phase_seconds"),
@@ -103,7 +102,7 @@ def _run_rdmesh(spec: dict, surface, **options) -> dict:
             "certified": bool(m.topology_certified),
             "complete": bool(m.complete),
         },
-    }
+    )
 
 
 def child_rdmesh(spec: dict) -> dict:
@@ -172,15 +171,15 @@ def child_pygalmesh(spec: dict) -> dict:
     seconds = time.perf_counter() - t0
     faces = np.asarray(mesh.get_cells_type("triangle"), np.int64)
     vertices = np.asarray(mesh.points, float) + centre
-    save_mesh(spec.get("out"), vertices, faces)
-    return {
-        "seconds": seconds,
-        "vertices": int(len(np.unique(faces))),
-        "faces": int(len(faces)),
-        "evaluations": int(domain.evaluations),
-        "baseline_rss_mb": base,
-        "extra": {"pygalmesh_version": getattr(pygalmesh, "__version__", None)},
-    }
+    return mesh_run(
+        spec.get("out"),
+        vertices,
+        faces,
+        seconds=seconds,
+        evaluations=domain.evaluations,
+        baseline_rss_mb=base,
+        extra={"pygalmesh_version": getattr(pygalmesh, "__version__", None)},
+    )
 
 
 def child_marching_cubes(spec: dict) -> dict:
@@ -194,15 +193,15 @@ def child_marching_cubes(spec: dict) -> dict:
     t0 = time.perf_counter()
     v, f, n = marching_cubes_mesh(s, np.array(spec["lo"]), np.array(spec["hi"]), spec["spacing"])
     seconds = time.perf_counter() - t0
-    save_mesh(spec.get("out"), v, f)
-    return {
-        "seconds": seconds,
-        "vertices": int(len(np.unique(f))),
-        "faces": int(len(f)),
-        "evaluations": int(n),
-        "baseline_rss_mb": base,
-        "extra": {"grid_points": int(n)},
-    }
+    return mesh_run(
+        spec.get("out"),
+        v,
+        f,
+        seconds=seconds,
+        evaluations=n,
+        baseline_rss_mb=base,
+        extra={"grid_points": int(n)},
+    )
 
 
 CHILDREN: dict[str, Callable[[dict], dict]] = {
@@ -308,10 +307,13 @@ class Pygalmesh(PythonMesher):
 
     def check(self, args: argparse.Namespace, versions: dict) -> str | None:
         probe = run_measured(
-            [args.pygalmesh_python, "-c",
-             "import pygalmesh, rdmesh.surfaces; print(pygalmesh.__version__)"],
+            [
+                args.pygalmesh_python,
+                "-c",
+                "import pygalmesh, rdmesh.surfaces; print(pygalmesh.__version__)",
+            ],
             timeout=300,
-        )  # fmt: skip
+        )
         if probe["returncode"] == 0:
             versions["pygalmesh"] = probe["stdout"].strip()
             return None

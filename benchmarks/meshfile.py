@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["load_mesh", "read_off", "save_mesh"]
+__all__ = ["load_mesh", "mesh_run", "read_off", "save_mesh"]
 
 
 def save_mesh(path: str | None, vertices, faces) -> None:
@@ -18,6 +18,31 @@ def save_mesh(path: str | None, vertices, faces) -> None:
         import numpy as np
 
         np.savez(path, vertices=np.asarray(vertices, float), faces=np.asarray(faces, np.int64))
+
+
+def mesh_run(
+    path: str | None,
+    vertices,
+    faces,
+    *,
+    seconds: float,
+    evaluations: int,
+    baseline_rss_mb: float,
+    extra: dict,
+) -> dict:
+    """Write the mesh (:func:`save_mesh`) and return a child's run record: time,
+    vertices in faces, faces, evaluations of f, the RSS before meshing, extra."""
+    import numpy as np
+
+    save_mesh(path, vertices, faces)
+    return {
+        "seconds": seconds,
+        "vertices": int(len(np.unique(faces))),
+        "faces": int(len(faces)),
+        "evaluations": int(evaluations),
+        "baseline_rss_mb": baseline_rss_mb,
+        "extra": extra,
+    }
 
 
 def read_off(path: str | os.PathLike) -> tuple:
