@@ -77,13 +77,6 @@ class SegmentSamples:
         """(P,) the segment of every sample."""
         return np.repeat(np.arange(len(self.offsets) - 1), np.diff(self.offsets))
 
-    def interior(self) -> np.ndarray:
-        """(P,) bool: every sample but the two ends of its segment."""
-        mask = np.ones(len(self.s), bool)
-        mask[self.offsets[:-1]] = False
-        mask[self.offsets[1:] - 1] = False
-        return mask
-
 
 def line_crossings(
     surface: ImplicitSurface,
