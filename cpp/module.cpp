@@ -20,6 +20,8 @@
 #include <malloc.h>
 #endif
 
+#include "cell_boxes.hpp"
+#include "interval_eval.hpp"
 #include "mesh_distance.hpp"
 #include "rdt.hpp"
 #include "sample_scan.hpp"
@@ -227,6 +229,85 @@ PYBIND11_MODULE(_rdt, m) {
       "((seg, lo, hi, rising) sign changes, (seg, x1, x2, x3, sign) dips, "
       "(seg, lo, hi, inside, |f| at lo, |f| at hi) valleys). values: f at every "
       "sample, or at the interior samples only when ends (k, 2) are given.");
+
+  m.def(
+      "boxes_outside_cells",
+      [](const InArray& lo, const InArray& hi, const IdArray& owner, const InArray& points,
+         const IdArray& offsets, const IdArray& neighbour, std::optional<IdArray> skip) {
+        const std::vector<double> L = rows3(lo, "lo"), H = rows3(hi, "hi");
+        const std::vector<double> P = rows3(points, "points");
+        const std::size_t n = L.size() / 3, np_ = P.size() / 3;
+        if (H.size() != L.size()) throw std::invalid_argument("lo and hi must have the same shape");
+        if (owner.ndim() != 1 || static_cast<std::size_t>(owner.shape(0)) != n)
+          throw std::invalid_argument("owner must have shape (n,), one per box");
+        if (skip && (skip->ndim() != 1 || static_cast<std::size_t>(skip->shape(0)) != n))
+          throw std::invalid_argument("skip must have shape (n,), one per box");
+        if (offsets.ndim() != 1 || static_cast<std::size_t>(offsets.shape(0)) != np_ + 1)
+          throw std::invalid_argument("offsets must have shape (len(points) + 1,)");
+        const std::vector<std::int64_t> O = copy_of<std::int64_t>(owner),
+                                        off = copy_of<std::int64_t>(offsets),
+                                        nb = copy_of<std::int64_t>(neighbour);
+        const std::vector<std::int64_t> S = skip ? copy_of<std::int64_t>(*skip)
+                                                 : std::vector<std::int64_t>();
+        if (off[0] != 0 || off[np_] != static_cast<std::int64_t>(nb.size()))
+          throw std::invalid_argument("offsets must run from 0 to len(neighbour)");
+        for (std::size_t i = 0; i < np_; ++i)
+          if (off[i + 1] < off[i]) throw std::invalid_argument("offsets must not decrease");
+        for (std::int64_t q : nb)
+          if (q < 0 || static_cast<std::size_t>(q) >= np_)
+            throw std::invalid_argument("neighbour ids must be rows of points");
+        for (std::int64_t p : O)
+          if (p < 0 || static_cast<std::size_t>(p) >= np_)
+            throw std::invalid_argument("owner ids must be rows of points");
+        std::vector<std::uint8_t> out;
+        {
+          py::gil_scoped_release release;
+          out = rdmesh::boxes_outside_cells(L.data(), H.data(), n, O.data(),
+                                            skip ? S.data() : nullptr, P.data(), off.data(),
+                                            nb.data());
+        }
+        return to_numpy(out, {static_cast<py::ssize_t>(n)});
+      },
+      py::arg("lo"), py::arg("hi"), py::arg("owner"), py::arg("points"), py::arg("offsets"),
+      py::arg("neighbour"), py::arg("skip") = py::none(),
+      "(n,) uint8: box i lies wholly beyond the bisector of points[owner[i]] and one of "
+      "its neighbours (neighbour[offsets[p]:offsets[p + 1]], other than skip[i]).");
+
+  m.def(
+      "evaluate_intervals",
+      [](const py::array_t<std::int32_t, py::array::c_style | py::array::forcecast>& ops,
+         const InArray& consts, const InArray& lo, const InArray& hi, bool gradient,
+         bool mean_value) {
+        if (ops.ndim() != 2 || ops.shape(1) != 3)
+          throw std::invalid_argument("ops must have shape (t, 3)");
+        if (consts.ndim() != 1 || consts.shape(0) != ops.shape(0))
+          throw std::invalid_argument("consts must have shape (t,)");
+        const std::vector<double> L = rows3(lo, "lo"), H = rows3(hi, "hi");
+        if (L.size() != H.size()) throw std::invalid_argument("lo and hi must have the same shape");
+        std::vector<rdmesh::IntervalInstruction> program(ops.shape(0));
+        const std::int32_t* o = ops.data();
+        for (std::size_t i = 0; i < program.size(); ++i)
+          program[i] = {o[3 * i], o[3 * i + 1], o[3 * i + 2], consts.data()[i]};
+        const std::size_t n = L.size() / 3;
+        rdmesh::IntervalResult r;
+        {
+          py::gil_scoped_release release;
+          r = rdmesh::evaluate_intervals(program, L.data(), H.data(), n, gradient, mean_value);
+        }
+        const auto nn = static_cast<py::ssize_t>(n);
+        py::object glo = py::none(), ghi = py::none();
+        if (gradient) {
+          glo = to_numpy(r.glo, {nn, 3});
+          ghi = to_numpy(r.ghi, {nn, 3});
+        }
+        return py::make_tuple(to_numpy(r.lo, {nn}), to_numpy(r.hi, {nn}), glo, ghi,
+                              to_numpy(r.undefined, {nn}));
+      },
+      py::arg("ops"), py::arg("consts"), py::arg("lo"), py::arg("hi"), py::arg("gradient"),
+      py::arg("mean_value"),
+      "Interval bounds of a compiled expression program (see "
+      "rdmesh.surfaces.interval_program) over (n, 3) boxes: (lo, hi, glo, ghi, undefined); "
+      "glo and ghi are None without gradient.");
 
   py::class_<RestrictedDelaunay>(m, "RestrictedDelaunay")
       .def(py::init([](const InArray& centre, double radius) {

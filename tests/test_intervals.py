@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from rdmesh.surfaces import SURFACES
+from rdmesh.surfaces import SURFACES, intervals
 from rdmesh.surfaces.builtin import BUILTIN_EXPRESSIONS
 from rdmesh.surfaces.expressions import _ALIASES, _NARY, _UNARY, FUNCTIONS, parse_expression
 from rdmesh.surfaces.intervals import Enclosure, GradientEnclosure, interval, interval_gradient
@@ -21,6 +21,14 @@ SPECIAL = np.array(
     [0.0, 1.0, -1.0, 0.5, -0.5, 2.0, -2.0, 3.0] + [k * math.pi / 2 for k in (-3, -2, -1, 1, 2, 3)]
 )
 HALF_WIDTHS = np.array([0.0, 1e-15, 1e-9, 1e-4, 0.01, 0.3, 1.0, 3.0])
+
+
+@pytest.fixture(autouse=True, params=["core", "numpy"])
+def evaluator(request, monkeypatch):
+    """Every test runs on both evaluators: the core's (C++, for the functions it
+    has rules for) and the numpy one (every function)."""
+    monkeypatch.setattr(intervals, "NATIVE", request.param == "core")
+    return request.param
 
 
 # -- the checker ------------------------------------------------------------------------

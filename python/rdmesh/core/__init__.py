@@ -6,7 +6,10 @@ centres, batch insertion, the facets whose dual changed in each round with
 their dual segments sampled, Voronoi facets, and the greedy independent set
 of balls that makes a batch a valid sequential run; ``VolumeSampler``, the
 B-spline sampler of :class:`rdmesh.VolumeSurface`; and ``MeshDistance``, the
-distance, side and winding-number queries behind ``MeshSurface``.
+distance, side and winding-number queries behind ``MeshSurface``;
+``evaluate_intervals``, interval bounds of a compiled expression over boxes
+(:mod:`rdmesh.surfaces.interval_program`); and ``boxes_outside_cells``, the
+Voronoi-cell pruning of the proven topological-ball tests.
 
 Facet flag bits (set by Python, kept by the core per facet):
 ``RESTRICTED`` (the dual meets the surface), ``BAD`` (fails a criterion),
@@ -23,6 +26,8 @@ from ._rdt import (
     MeshDistance,
     RestrictedDelaunay,
     VolumeSampler,
+    boxes_outside_cells,
+    evaluate_intervals,
     sample_segments,
     scan_samples,
     select_independent,
@@ -38,6 +43,8 @@ __all__ = [
     "TOPO",
     "RestrictedDelaunay",
     "VolumeSampler",
+    "boxes_outside_cells",
+    "evaluate_intervals",
     "sample_segments",
     "scan_samples",
     "select_independent",

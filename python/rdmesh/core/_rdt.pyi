@@ -26,6 +26,29 @@ def sample_segments(
     min_intervals: int = 3,
     max_intervals: int = 64,
 ) -> _SegmentSamples: ...
+def boxes_outside_cells(
+    lo: npt.ArrayLike,
+    hi: npt.ArrayLike,
+    owner: npt.ArrayLike,
+    points: npt.ArrayLike,
+    offsets: npt.ArrayLike,
+    neighbour: npt.ArrayLike,
+    skip: npt.ArrayLike | None = None,
+) -> npt.NDArray[np.uint8]: ...
+def evaluate_intervals(
+    ops: npt.ArrayLike,
+    consts: npt.ArrayLike,
+    lo: npt.ArrayLike,
+    hi: npt.ArrayLike,
+    gradient: bool,
+    mean_value: bool,
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64] | None,
+    npt.NDArray[np.float64] | None,
+    npt.NDArray[np.uint8],
+]: ...
 def scan_samples(
     offsets: npt.ArrayLike,
     s: npt.ArrayLike,

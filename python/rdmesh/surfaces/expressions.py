@@ -521,6 +521,8 @@ class Expression:
     _root: _Node
     # Boxes bounded so far (a mutable cell: the dataclass is frozen).
     _boxes: list = field(default_factory=lambda: [0], repr=False)
+    # The core's interval program, compiled on first use (a mutable cell).
+    _program: list = field(default_factory=list, repr=False)
 
     @property
     def interval_evaluations(self) -> int:

@@ -8,6 +8,13 @@ functions are the methods :meth:`Expression.interval` and
 :meth:`Expression.interval_gradient`. A segment is handled through the box that
 encloses it (or each piece of it).
 
+Two evaluators apply the same rules. Expressions whose functions all have a
+rule in the core (arithmetic, constant powers, ``sqrt``, ``exp``, ``log``,
+``abs``, ``min``, ``max``, ``sin``, ``cos``: every built-in surface) run in
+C++ (:mod:`~rdmesh.surfaces.interval_program`, ``cpp/interval_eval.cpp``),
+box after box, several times faster; the others run here, in numpy. The
+guarantees below hold for both.
+
 What is guaranteed
 ------------------
 For box ``i`` and every point ``p`` of it where ``f`` is defined,
@@ -787,6 +794,38 @@ def _as_expression(expr: Expression | str) -> Expression:
     return parse_expression(expr) if isinstance(expr, str) else expr
 
 
+#: Run expressions through the core's evaluator when it has a rule for every
+#: function in them (the tests switch it off to check the numpy path too).
+NATIVE = True
+
+
+def _native(expr: Expression):
+    """The expression's program for the core's evaluator, or None."""
+    if not NATIVE:
+        return None
+    if not expr._program:
+        from .interval_program import compile_program
+
+        expr._program.append(compile_program(expr._root))
+    return expr._program[0]
+
+
+def _bounds(expr: Expression, lo, hi, gradient: bool, mean_value: bool):
+    """(flo, fhi, glo, ghi, undefined); glo and ghi are None without gradient."""
+    program = _native(expr)
+    if program is not None:
+        from ..core import evaluate_intervals
+
+        flo, fhi, glo, ghi, undefined = evaluate_intervals(
+            program[0], program[1], lo, hi, gradient, mean_value
+        )
+        return flo, fhi, glo, ghi, undefined.view(bool)
+    flo, fhi, glo, ghi, undefined = _evaluate(expr, lo, hi, gradient or mean_value)
+    if mean_value:
+        flo, fhi = _mean_value(expr, lo, hi, flo, fhi, glo, ghi, undefined)
+    return flo, fhi, glo, ghi, undefined
+
+
 def _evaluate(expr: Expression, lo, hi, gradient: bool):
     n = len(lo)
     walker = _Walker(lo, hi, gradient)
@@ -883,9 +922,7 @@ def interval(
     """
     expr = _as_expression(expr)
     lo, hi = _boxes(lo, hi)
-    flo, fhi, glo, ghi, undefined = _evaluate(expr, lo, hi, gradient=mean_value)
-    if mean_value:
-        flo, fhi = _mean_value(expr, lo, hi, flo, fhi, glo, ghi, undefined)
+    flo, fhi, _, _, undefined = _bounds(expr, lo, hi, False, mean_value)
     return Enclosure(flo, fhi, undefined)
 
 
@@ -920,9 +957,7 @@ def interval_gradient(
     """
     expr = _as_expression(expr)
     lo, hi = _boxes(lo, hi)
-    flo, fhi, glo, ghi, undefined = _evaluate(expr, lo, hi, gradient=True)
-    if mean_value:
-        flo, fhi = _mean_value(expr, lo, hi, flo, fhi, glo, ghi, undefined)
+    flo, fhi, glo, ghi, undefined = _bounds(expr, lo, hi, True, mean_value)
     return GradientEnclosure(flo, fhi, glo, ghi, undefined)
 
 

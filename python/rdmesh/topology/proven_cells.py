@@ -41,6 +41,7 @@ import numpy as np
 from .._newton import damped_step
 from .._tol import ON_SURFACE, PROOF_BOX_FLOOR, PROOF_BOX_RELATIVE, TINY
 from .._vectors import row_index, row_norms
+from ..core import boxes_outside_cells
 from ..surfaces.expressions import Expression
 from ..surfaces.intervals import dot_bounds
 from ..surfaces.oracle import ImplicitSurface
@@ -347,25 +348,10 @@ def _span(lo, hi, w) -> tuple[np.ndarray, np.ndarray]:
 
 def _outside_cell(lo, hi, p_ids, vertices, geometry: CellGeometry, skip=None) -> np.ndarray:
     """Boxes wholly beyond the bisector of ``p`` and one of its neighbours
-    (other than ``skip``): outside the Voronoi cell of ``p``."""
-    off = geometry.offsets
-    start, count = off[p_ids], off[p_ids + 1] - off[p_ids]
-    box = np.repeat(np.arange(len(lo)), count)
-    pos = np.arange(len(box)) - np.repeat(np.cumsum(count) - count, count)
-    nb = geometry.neighbour[np.repeat(start, count) + pos]
-    p = vertices[np.repeat(p_ids, count)]
-    qv = vertices[nb]
-    w = qv - p
-    a, _ = _span(lo[box], hi[box], w)
-    c = np.einsum("ij,ij->i", 0.5 * (p + qv), w)
-    # A small relative margin: rounding must not drop a box that touches the cell.
-    beyond = a > c + 1e-12 * (np.abs(c) + row_norms(w) * row_norms(p))
+    (other than ``skip``): outside the Voronoi cell of ``p`` (in the core, with
+    a relative margin so that rounding never drops a box that touches the cell)."""
+    owner = np.broadcast_to(np.asarray(p_ids, dtype=np.int64), (len(lo),))
     if skip is not None:
-        beyond &= nb != np.repeat(skip, count)
-    # Neighbour lists are contiguous per box: a segmented any().
-    out = np.zeros(len(lo), bool)
-    has = count > 0
-    if has.any():
-        first = (np.cumsum(count) - count)[has]
-        out[has] = np.add.reduceat(beyond.astype(np.int32), first) > 0
-    return out
+        skip = np.broadcast_to(np.asarray(skip, dtype=np.int64), (len(lo),))
+    out = boxes_outside_cells(lo, hi, owner, vertices, geometry.offsets, geometry.neighbour, skip)
+    return out.view(bool)

@@ -1,0 +1,24 @@
+// Which boxes lie wholly outside the Voronoi cell of their owner sample: beyond
+// the bisector plane of the owner and one of its Delaunay neighbours.  The cell
+// pruning of the proven topological-ball tests (rdmesh.topology.proven_cells),
+// one pass with an early exit per box instead of a numpy row per neighbour.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace rdmesh {
+
+// Box i is [lo_i, hi_i] (rows of 3), owned by sample owner[i]; the neighbours
+// of sample p are neighbour[offsets[p] : offsets[p + 1]].  Neighbour skip[i]
+// (when skip is not null) is not used for box i.  A box counts as outside only
+// when its least value of x . (q - p) exceeds the bisector's by a relative
+// margin of 1e-12, so rounding never drops a box that touches the cell.
+std::vector<std::uint8_t> boxes_outside_cells(const double* lo, const double* hi,
+                                              std::size_t n, const std::int64_t* owner,
+                                              const std::int64_t* skip, const double* points,
+                                              const std::int64_t* offsets,
+                                              const std::int64_t* neighbour);
+
+}  // namespace rdmesh

@@ -1,0 +1,576 @@
+// Interval dual numbers over boxes; see interval_eval.hpp.  Each rule mirrors
+// the one of the same name in python/rdmesh/surfaces/intervals.py.
+#include "interval_eval.hpp"
+
+#include <algorithm>
+#include <functional>
+#include <cfloat>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+namespace rdmesh {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kMax = DBL_MAX;
+constexpr double kTiny = DBL_MIN;  // smallest normal
+// Relative widening of libm results that are not correctly rounded
+// (intervals.REL_WIDENING).
+constexpr double kRel = 1.0 / 562949953421312.0;  // 2**-49
+const double kPi = std::acos(-1.0);
+
+struct I {
+  double lo, hi;
+};
+
+// A float below x, one to two ulps (NaN gives -inf, +inf the largest float),
+// and above.  In round-to-nearest, fl(x - fl(fl(2**-52 |x|) + 2**-1074)) is at
+// most the float below x, as 2**-52 |x| is at least one ulp of x and 2**-1074
+// the subnormal spacing (intervals._dn); no branch and no libm call, which
+// nextafter costs about ten times as much.
+constexpr double kUlpRel = 2.220446049250313e-16;  // 2**-52
+constexpr double kEta = 4.9406564584124654e-324;   // 2**-1074
+// Comparisons rather than fmin/fmax: those are libm calls under CGAL's
+// -frounding-math.
+inline double dn(double x) {
+  const double ax = std::fabs(x);
+  const double r = x - ((ax < kMax ? ax : kMax) * kUlpRel + kEta);
+  return r > kMax ? kMax : (r == r ? r : -kInf);  // NaN gives -inf
+}
+inline double up(double x) {
+  const double ax = std::fabs(x);
+  const double r = x + ((ax < kMax ? ax : kMax) * kUlpRel + kEta);
+  return r < -kMax ? -kMax : (r == r ? r : kInf);
+}
+// Bounds for a libm result: widened relatively and absolutely, then rounded.
+inline double dn_t(double x) {
+  const double ax = std::fabs(x);
+  return dn(x - ((ax < kMax ? ax : kMax) * kRel + kTiny));
+}
+inline double up_t(double x) {
+  const double ax = std::fabs(x);
+  return up(x + ((ax < kMax ? ax : kMax) * kRel + kTiny));
+}
+
+inline I point(double c) { return {c, c}; }
+inline I full() { return {-kInf, kInf}; }
+inline bool has0(I a) { return a.lo <= 0 && a.hi >= 0; }
+
+// Knuth's TwoSum: sums whose rounding error is 0 are kept exact.
+inline double add_dn(double u, double v) {
+  const double s = u + v, vv = s - u;
+  const double err = (u - (s - vv)) + (v - vv);
+  return err >= 0 ? s : dn(s);
+}
+inline double add_up(double u, double v) {
+  const double s = u + v, vv = s - u;
+  const double err = (u - (s - vv)) + (v - vv);
+  return err <= 0 ? s : up(s);
+}
+inline I add(I a, I b) { return {add_dn(a.lo, b.lo), add_up(a.hi, b.hi)}; }
+inline I sub(I a, I b) { return {add_dn(a.lo, -b.hi), add_up(a.hi, -b.lo)}; }
+inline I neg(I a) { return {-a.hi, -a.lo}; }
+
+// +-2**k (normal): a product by it is exact unless it under- or overflows.
+inline bool pow2(double u) {
+  std::uint64_t bits;
+  std::memcpy(&bits, &u, sizeof bits);
+  const std::uint64_t expo = (bits >> 52) & 0x7ff;
+  return (bits & 0xfffffffffffffULL) == 0 && expo != 0 && expo != 0x7ff;
+}
+
+inline I signed_(I r, I a, I b) {
+  const bool nonneg = (a.lo >= 0 && b.lo >= 0) || (a.hi <= 0 && b.hi <= 0);
+  const bool nonpos = (a.lo >= 0 && b.hi <= 0) || (a.hi <= 0 && b.lo >= 0);
+  if (nonneg) r.lo = std::max(r.lo, 0.0);
+  if (nonpos) r.hi = std::min(r.hi, 0.0);
+  return r;
+}
+
+// One corner product.  exact: it needs no rounding (a zero factor makes the
+// product exactly 0, also against an infinite bound; a product by +-2**k in
+// the normal range is exact).
+inline double corner(double u, double v, bool& exact) {
+  if (u == 0 || v == 0) return 0.0;
+  const double p = u * v;
+  const double ap = std::fabs(p);
+  exact = exact && (pow2(u) || pow2(v)) && ap >= kTiny && ap <= kMax;
+  return p;
+}
+
+// The extreme products, rounded once: dn and up are monotone and move at least
+// one ulp, so dn(min fl(u v)) is below the least true product.
+inline I mul(I a, I b) {
+  bool exact = true;
+  double lo, hi;
+  if (b.lo == b.hi || a.lo == a.hi) {  // a point factor (a constant, a unit gradient)
+    if (a.lo == a.hi) std::swap(a, b);
+    const double p1 = corner(a.lo, b.lo, exact), p2 = corner(a.hi, b.lo, exact);
+    lo = std::min(p1, p2);
+    hi = std::max(p1, p2);
+  } else {
+    const double p1 = corner(a.lo, b.lo, exact), p2 = corner(a.hi, b.lo, exact);
+    const double p3 = corner(a.lo, b.hi, exact), p4 = corner(a.hi, b.hi, exact);
+    lo = std::min(std::min(p1, p2), std::min(p3, p4));
+    hi = std::max(std::max(p1, p2), std::max(p3, p4));
+  }
+  if (!exact) {
+    lo = dn(lo);
+    hi = up(hi);
+  }
+  return signed_({lo, hi}, a, b);
+}
+
+// 1/b over the nonzero members of b (the extended reciprocal).
+inline I recip(I b) {
+  if (b.lo == 0 && b.hi == 0) return full();
+  const bool off0 = b.lo > 0 || b.hi < 0;
+  double lo = (off0 || b.lo == 0) ? dn(1.0 / b.hi) : -kInf;
+  double hi = (off0 || b.hi == 0) ? up(1.0 / b.lo) : kInf;
+  if (b.lo >= 0) lo = std::max(lo, 0.0);
+  if (b.hi <= 0) hi = std::min(hi, 0.0);
+  return {lo, hi};
+}
+
+inline I div(I a, I b) {
+  if (b.lo > 0 || b.hi < 0) {
+    const double q[4] = {a.lo / b.lo, a.lo / b.hi, a.hi / b.lo, a.hi / b.hi};
+    // inf/inf corners are NaN; the other corners already reach 0 and +-inf there.
+    double lo = kInf, hi = -kInf;
+    for (double v : q) {
+      lo = std::fmin(lo, v);
+      hi = std::fmax(hi, v);
+    }
+    return signed_({dn(lo), up(hi)}, a, b);
+  }
+  return mul(a, recip(b));
+}
+
+inline I sqr(I a) {
+  const double l2 = a.lo * a.lo, h2 = a.hi * a.hi;
+  double lo, hi;
+  if (a.lo >= 0) {
+    lo = l2;
+    hi = h2;
+  } else if (a.hi <= 0) {
+    lo = h2;
+    hi = l2;
+  } else {
+    lo = 0.0;
+    hi = std::max(l2, h2);
+  }
+  return {std::max(dn(lo), 0.0), up(hi)};
+}
+
+inline I keep_sign(I r, I a) {
+  if (a.lo >= 0) r.lo = std::max(r.lo, 0.0);
+  if (a.hi <= 0) r.hi = std::min(r.hi, 0.0);
+  return r;
+}
+
+inline double mig(I a) { return has0(a) ? 0.0 : std::min(std::fabs(a.lo), std::fabs(a.hi)); }
+inline double mag(I a) { return std::max(std::fabs(a.lo), std::fabs(a.hi)); }
+
+// a**n for an integer n >= 1.
+I pow_int(I a, double n) {
+  if (n == 1) return a;
+  if (n == 2) return sqr(a);
+  const double lo_n = std::pow(a.lo, n), hi_n = std::pow(a.hi, n);
+  if (std::fmod(n, 2.0) == 1.0) return keep_sign({dn_t(lo_n), up_t(hi_n)}, a);
+  double lo, hi;
+  if (a.lo >= 0) {
+    lo = lo_n;
+    hi = hi_n;
+  } else if (a.hi <= 0) {
+    lo = hi_n;
+    hi = lo_n;
+  } else {
+    lo = 0.0;
+    hi = std::max(lo_n, hi_n);
+  }
+  return {std::max(dn_t(lo), 0.0), up_t(hi)};
+}
+
+// Clips a to [lower, inf) (open or closed): undefined where a leaves it,
+// empty where no member is in it.
+inline I restrict_below(I a, double lower, bool open, bool& undefined, bool& empty) {
+  undefined = open ? a.lo <= lower : a.lo < lower;
+  empty = open ? a.hi <= lower : a.hi < lower;
+  const double lo = std::max(a.lo, lower);
+  empty = empty || lo > a.hi;
+  return {lo, std::max(lo, a.hi)};
+}
+
+// a**c for a constant c; sets undefined where a holds points outside the domain.
+I pow_const(I a, double c, bool& undefined) {
+  undefined = false;
+  if (c == 0) return point(1.0);  // numpy: x**0 == 1 for every x
+  if (!std::isfinite(c)) {
+    undefined = true;
+    return full();
+  }
+  if (c == std::floor(c)) {
+    if (c > 0) return pow_int(a, c);
+    undefined = has0(a);
+    return recip(pow_int(a, -c));
+  }
+  // A non-integer power needs a base >= 0 (> 0 when c < 0).
+  bool empty;
+  const I b = restrict_below(a, 0.0, c < 0, undefined, empty);
+  if (empty) return full();
+  I r = c > 0 ? I{dn_t(std::pow(b.lo, c)), up_t(std::pow(b.hi, c))}
+              : I{dn_t(std::pow(b.hi, c)), up_t(std::pow(b.lo, c))};
+  return {std::max(r.lo, 0.0), r.hi};
+}
+
+// Where a may contain phase + k * period for an integer k (errs towards true).
+inline bool hits(I a, double phase, double period) {
+  const double tl = (a.lo - phase) / period, th = (a.hi - phase) / period;
+  return std::floor(th + 1e-12 * (1.0 + std::fabs(th))) >=
+         std::ceil(tl - 1e-12 * (1.0 + std::fabs(tl)));
+}
+
+// sin or cos: end values, and +-1 where a maximum or minimum lies inside.
+I wave(bool is_sin, I a) {
+  const double top = is_sin ? kPi / 2 : 0.0, bottom = is_sin ? -kPi / 2 : kPi;
+  const double f1 = is_sin ? std::sin(a.lo) : std::cos(a.lo);
+  const double f2 = is_sin ? std::sin(a.hi) : std::cos(a.hi);
+  // NaN at infinite ends: those boxes hit both extrema.
+  double lo = hits(a, bottom, 2 * kPi) ? -1.0 : dn_t(std::fmin(f1, f2));
+  double hi = hits(a, top, 2 * kPi) ? 1.0 : up_t(std::fmax(f1, f2));
+  if (std::isnan(f1) || std::isnan(f2)) lo = -1.0, hi = 1.0;
+  return {std::clamp(lo, -1.0, 1.0), std::clamp(hi, -1.0, 1.0)};
+}
+
+struct Dual {
+  I v;
+  I g[3];
+};
+
+// Runs the program on one box; returns the last register and whether the box
+// may hold points where f is undefined.
+class Machine {
+ public:
+  Machine(const std::vector<IntervalInstruction>& program, bool gradient)
+      : prog_(program), regs_(program.size()), grad_(program.size(), 0) {
+    for (std::size_t i = 0; i < prog_.size(); ++i) {
+      const auto& p = prog_[i];
+      switch (p.op) {
+        case IV_CONST:
+          grad_[i] = 0;
+          break;
+        case IV_VAR:
+          grad_[i] = 1;
+          break;
+        case IV_ADD:
+        case IV_SUB:
+        case IV_MUL:
+        case IV_DIV:
+        case IV_MIN:
+        case IV_MAX:
+          grad_[i] = grad_[p.a] || grad_[p.b];
+          break;
+        case IV_POWC:
+          grad_[i] = grad_[p.a] && p.c != 0;
+          break;
+        default:
+          grad_[i] = grad_[p.a];
+      }
+      grad_[i] = grad_[i] && gradient;
+    }
+  }
+
+  bool has_gradient() const { return !grad_.empty() && grad_.back(); }
+
+  const Dual& run(const double* lo, const double* hi, bool& undefined) {
+    undefined = false;
+    for (std::size_t i = 0; i < prog_.size(); ++i) step(i, lo, hi, undefined);
+    return regs_.back();
+  }
+
+ private:
+  void step(std::size_t i, const double* lo, const double* hi, bool& undef) {
+    const IntervalInstruction& p = prog_[i];
+    Dual& r = regs_[i];
+    const bool g = grad_[i];
+    switch (p.op) {
+      case IV_CONST:
+        if (!std::isfinite(p.c)) {  // e.g. 1e999: not a real number
+          undef = true;
+          r.v = {dn(p.c), up(p.c)};
+        } else {
+          r.v = point(p.c);
+        }
+        return;
+      case IV_VAR:
+        r.v = {lo[p.a], hi[p.a]};
+        for (int k = 0; k < 3; ++k) r.g[k] = point(k == p.a ? 1.0 : 0.0);
+        return;
+      case IV_NEG: {
+        const Dual& a = regs_[p.a];
+        r.v = neg(a.v);
+        if (g)
+          for (int k = 0; k < 3; ++k) r.g[k] = neg(a.g[k]);
+        return;
+      }
+      case IV_ADD:
+      case IV_SUB: {
+        const Dual &a = regs_[p.a], &b = regs_[p.b];
+        const bool minus = p.op == IV_SUB;
+        r.v = minus ? sub(a.v, b.v) : add(a.v, b.v);
+        if (g)
+          for (int k = 0; k < 3; ++k) {
+            const I ga = grad_[p.a] ? a.g[k] : point(0.0);
+            const I gb = grad_[p.b] ? b.g[k] : point(0.0);
+            r.g[k] = minus ? sub(ga, gb) : add(ga, gb);
+          }
+        return;
+      }
+      case IV_MUL: {
+        const Dual &a = regs_[p.a], &b = regs_[p.b];
+        if (g)
+          for (int k = 0; k < 3; ++k) {
+            // d(uv) = du v + dv u, in the order of the tree walk.
+            if (grad_[p.a] && grad_[p.b])
+              r.g[k] = add(mul(a.g[k], b.v), mul(b.g[k], a.v));
+            else if (grad_[p.a])
+              r.g[k] = mul(a.g[k], b.v);
+            else
+              r.g[k] = mul(b.g[k], a.v);
+          }
+        r.v = mul(a.v, b.v);
+        return;
+      }
+      case IV_DIV: {
+        const Dual &a = regs_[p.a], &b = regs_[p.b];
+        if (has0(b.v)) undef = true;
+        const I q = div(a.v, b.v);
+        if (g) {
+          // d(u/v) = (du - (u/v) dv) * (1/v), as the point dual computes it.
+          const I rb = recip(b.v);
+          for (int k = 0; k < 3; ++k) {
+            I t;
+            if (grad_[p.b]) {
+              const I dv = mul(b.g[k], q);
+              t = grad_[p.a] ? sub(a.g[k], dv) : neg(dv);
+            } else {
+              t = a.g[k];
+            }
+            r.g[k] = mul(t, rb);
+          }
+        }
+        r.v = q;
+        return;
+      }
+      case IV_POWC: {
+        const Dual& a = regs_[p.a];
+        bool u = false;
+        r.v = pow_const(a.v, p.c, u);
+        undef = undef || u;
+        if (g) {
+          if (!std::isfinite(p.c)) {
+            for (int k = 0; k < 3; ++k) r.g[k] = full();
+          } else {
+            bool ignored = false;
+            const I d = mul(point(p.c), pow_const(a.v, p.c - 1.0, ignored));
+            for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], d);
+          }
+        }
+        return;
+      }
+      case IV_SQRT:
+      case IV_LOG: {
+        const Dual& a = regs_[p.a];
+        const bool is_log = p.op == IV_LOG;
+        bool u, empty;
+        const I x = restrict_below(a.v, 0.0, is_log, u, empty);
+        undef = undef || u;
+        if (empty) {
+          r.v = full();
+          if (g)
+            for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], full());
+          return;
+        }
+        I d;
+        if (is_log) {
+          r.v = {dn_t(std::log(x.lo)), up_t(std::log(x.hi))};
+          d = recip(x);
+        } else {
+          // IEEE 754 square roots are correctly rounded: no libm widening.
+          r.v = {std::max(dn(std::sqrt(x.lo)), 0.0), up(std::sqrt(x.hi))};
+          d = mul(point(0.5), recip(r.v));
+        }
+        if (g)
+          for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], d);
+        return;
+      }
+      case IV_EXP: {
+        const Dual& a = regs_[p.a];
+        r.v = {std::max(dn_t(std::exp(a.v.lo)), 0.0), up_t(std::exp(a.v.hi))};
+        if (g)
+          for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], r.v);
+        return;
+      }
+      case IV_ABS: {
+        const Dual& a = regs_[p.a];
+        // sign(u), and the hull [-1, 1] of both branches where 0 is in a.
+        const I d = {a.v.lo > 0 ? 1.0 : -1.0, a.v.hi < 0 ? -1.0 : 1.0};
+        if (g)
+          for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], d);
+        r.v = {mig(a.v), mag(a.v)};
+        return;
+      }
+      case IV_MIN:
+      case IV_MAX: {
+        const Dual &a = regs_[p.a], &b = regs_[p.b];
+        bool only_a, only_b;
+        if (p.op == IV_MIN) {
+          only_a = a.v.hi < b.v.lo;
+          only_b = b.v.hi < a.v.lo;
+          r.v = {std::min(a.v.lo, b.v.lo), std::min(a.v.hi, b.v.hi)};
+        } else {
+          only_a = a.v.lo > b.v.hi;
+          only_b = b.v.lo > a.v.hi;
+          r.v = {std::max(a.v.lo, b.v.lo), std::max(a.v.hi, b.v.hi)};
+        }
+        if (g)
+          for (int k = 0; k < 3; ++k) {
+            const I ga = grad_[p.a] ? a.g[k] : point(0.0);
+            const I gb = grad_[p.b] ? b.g[k] : point(0.0);
+            // Where both branches can be taken, the hull of both gradients.
+            r.g[k] = only_a ? ga
+                     : only_b ? gb
+                              : I{std::min(ga.lo, gb.lo), std::max(ga.hi, gb.hi)};
+          }
+        return;
+      }
+      case IV_SIN:
+      case IV_COS: {
+        const Dual& a = regs_[p.a];
+        const bool is_sin = p.op == IV_SIN;
+        r.v = wave(is_sin, a.v);
+        if (g) {
+          const I d = is_sin ? wave(false, a.v) : neg(wave(true, a.v));
+          for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], d);
+        }
+        return;
+      }
+      default:
+        return;  // unreachable: the program was checked
+    }
+  }
+
+  const std::vector<IntervalInstruction>& prog_;
+  std::vector<Dual> regs_;
+  std::vector<std::uint8_t> grad_;
+};
+
+}  // namespace
+
+void check_interval_program(const std::vector<IntervalInstruction>& program) {
+  if (program.empty()) throw std::invalid_argument("the interval program is empty");
+  for (std::size_t i = 0; i < program.size(); ++i) {
+    const auto& p = program[i];
+    const std::string at = "interval program instruction " + std::to_string(i);
+    if (p.op < 0 || p.op >= IV_OP_COUNT) throw std::invalid_argument(at + ": unknown opcode");
+    if (p.op == IV_CONST) continue;
+    if (p.op == IV_VAR) {
+      if (p.a < 0 || p.a > 2) throw std::invalid_argument(at + ": axis out of range");
+      continue;
+    }
+    const bool binary = p.op == IV_ADD || p.op == IV_SUB || p.op == IV_MUL || p.op == IV_DIV ||
+                        p.op == IV_MIN || p.op == IV_MAX;
+    const auto bad = [&](std::int32_t r) {
+      return r < 0 || static_cast<std::size_t>(r) >= i;
+    };
+    if (bad(p.a) || (binary && bad(p.b)))
+      throw std::invalid_argument(at + ": an argument is not an earlier register");
+  }
+}
+
+namespace {
+
+// Boxes [begin, end) of evaluate_intervals, with machines of their own.
+void evaluate_range(const std::vector<IntervalInstruction>& program, const double* lo,
+                    const double* hi, std::size_t begin, std::size_t end, bool gradient,
+                    bool mean_value, IntervalResult& out) {
+  Machine box(program, gradient || mean_value);
+  Machine centre(program, false);
+  const bool with_grad = box.has_gradient();
+  for (std::size_t i = begin; i < end; ++i) {
+    const double* l = lo + 3 * i;
+    const double* h = hi + 3 * i;
+    bool undef = false;
+    const Dual& d = box.run(l, h, undef);
+    double flo = d.v.lo, fhi = d.v.hi;
+    I G[3] = {point(0.0), point(0.0), point(0.0)};
+    if (with_grad)
+      for (int k = 0; k < 3; ++k) G[k] = d.g[k];
+    if (gradient)
+      for (int k = 0; k < 3; ++k) {
+        out.glo[3 * i + k] = G[k].lo;
+        out.ghi[3 * i + k] = G[k].hi;
+      }
+    if (mean_value && !undef) {
+      bool ok = true;
+      for (int k = 0; k < 3; ++k)
+        ok = ok && std::isfinite(l[k]) && std::isfinite(h[k]) && std::isfinite(G[k].lo) &&
+             std::isfinite(G[k].hi);
+      if (ok) {
+        double m[3];
+        for (int k = 0; k < 3; ++k) m[k] = std::clamp(0.5 * l[k] + 0.5 * h[k], l[k], h[k]);
+        bool mundef = false;
+        const Dual& c = centre.run(m, m, mundef);
+        if (!mundef) {
+          I total = c.v;
+          for (int k = 0; k < 3; ++k)
+            total = add(total, mul(G[k], sub({l[k], h[k]}, point(m[k]))));
+          flo = std::max(flo, total.lo);
+          fhi = std::min(fhi, total.hi);
+        }
+      }
+    }
+    out.lo[i] = flo;
+    out.hi[i] = fhi;
+    out.undefined[i] = undef;
+  }
+}
+
+// Boxes per thread below which one thread does all the work.
+constexpr std::size_t kPerThread = 512;
+
+}  // namespace
+
+IntervalResult evaluate_intervals(const std::vector<IntervalInstruction>& program,
+                                  const double* lo, const double* hi, std::size_t n,
+                                  bool gradient, bool mean_value) {
+  check_interval_program(program);
+  IntervalResult out;
+  out.lo.resize(n);
+  out.hi.resize(n);
+  out.undefined.assign(n, 0);
+  if (gradient) {
+    out.glo.assign(3 * n, 0.0);
+    out.ghi.assign(3 * n, 0.0);
+  }
+  // Boxes are independent: split them over the cores (each writes its own rows,
+  // so the result does not depend on the split).
+  const std::size_t cores = std::max(1u, std::thread::hardware_concurrency());
+  const std::size_t parts = std::max<std::size_t>(1, std::min(cores, n / kPerThread));
+  std::vector<std::thread> threads;
+  const std::size_t step = (n + parts - 1) / std::max<std::size_t>(parts, 1);
+  for (std::size_t t = 1; t < parts; ++t) {
+    const std::size_t b = t * step, e = std::min(n, b + step);
+    threads.emplace_back(evaluate_range, std::cref(program), lo, hi, b, e, gradient, mean_value,
+                         std::ref(out));
+  }
+  evaluate_range(program, lo, hi, 0, std::min(n, step), gradient, mean_value, out);
+  for (auto& t : threads) t.join();
+  return out;
+}
+
+}  // namespace rdmesh

@@ -1,0 +1,161 @@
+"""The core's interval evaluator and cell pruning, against their numpy counterparts.
+
+The containment tests of every rule run on both evaluators in test_intervals.py;
+these check what is particular to the core: which expressions it takes, that it
+agrees with the numpy rules, that splitting the boxes over threads changes
+nothing, and its errors.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from rdmesh.core import boxes_outside_cells, evaluate_intervals
+from rdmesh.surfaces import intervals
+from rdmesh.surfaces.builtin import BUILTIN_EXPRESSIONS
+from rdmesh.surfaces.expressions import parse_expression
+from rdmesh.surfaces.interval_program import compile_program
+from scipy.spatial import Delaunay
+
+HARD = [
+    "min(sqrt(x**2+y**2+z**2)-1, sqrt((x-1.5)**2+(y-0.3)**2+(z-0.2)**2)-0.02)",
+    "sin(3*x)*cos(3*y) + sin(3*y)*cos(3*z) + sin(3*z)*cos(3*x)",
+    "abs(x) + max(y, z**3, -x) - log(1 + x**2)/(y - 0.5) + exp(-x**2)*z**(-2) + y**0.5",
+]
+
+
+def _boxes(rng, n, spread=2.0):
+    c = rng.uniform(-spread, spread, (n, 3))
+    w = rng.choice([0.0, 1e-9, 1e-3, 0.05, 0.5], (n, 3))
+    return c - w, c + w
+
+
+@pytest.mark.parametrize("text", [*BUILTIN_EXPRESSIONS.values(), *HARD])
+def test_core_takes_the_builtin_and_common_expressions(text):
+    assert compile_program(parse_expression(text)._root) is not None
+
+
+@pytest.mark.parametrize("text", ["tan(x) + y", "atan2(y, x) - z", "x**y + z", "hypot(x, y) - 1"])
+def test_functions_without_a_core_rule_stay_on_numpy(text):
+    assert compile_program(parse_expression(text)._root) is None
+    # ... and are still bounded (by the numpy evaluator).
+    r = parse_expression(text).interval_gradient(np.full((1, 3), 0.2), np.full((1, 3), 0.3))
+    assert np.isfinite(r.lo).all() and np.isfinite(r.glo).all()
+
+
+@pytest.mark.parametrize("text", [*BUILTIN_EXPRESSIONS.values(), *HARD])
+@pytest.mark.parametrize("mean_value", [False, True])
+def test_core_agrees_with_the_numpy_rules(text, mean_value, monkeypatch):
+    rng = np.random.default_rng(7)
+    lo, hi = _boxes(rng, 3000)
+    expr = parse_expression(text)
+    out = {}
+    for native in (True, False):
+        monkeypatch.setattr(intervals, "NATIVE", native)
+        out[native] = intervals.interval_gradient(expr, lo, hi, mean_value=mean_value)
+    core, ref = out[True], out[False]
+    assert np.array_equal(core.undefined, ref.undefined)
+    # Same rules, rounded a little differently: a few ulps of the bounds' size.
+    for a, b in ((core.lo, ref.lo), (core.hi, ref.hi), (core.glo, ref.glo), (core.ghi, ref.ghi)):
+        assert np.array_equal(np.isfinite(a), np.isfinite(b))
+        fin = np.isfinite(a)
+        scale = np.abs(b[fin]) + 1.0
+        assert (np.abs(a[fin] - b[fin]) <= 1e-12 * scale).all()
+
+
+def test_splitting_the_boxes_over_threads_changes_nothing():
+    expr = parse_expression(BUILTIN_EXPRESSIONS["blob_line"])
+    ops, consts = compile_program(expr._root)
+    lo, hi = _boxes(np.random.default_rng(1), 20_000)
+    whole = evaluate_intervals(ops, consts, lo, hi, True, True)
+    parts = [evaluate_intervals(ops, consts, lo[i : i + 300], hi[i : i + 300], True, True)
+             for i in range(0, len(lo), 300)]  # fmt: skip
+    for k in range(5):
+        assert np.array_equal(whole[k], np.concatenate([p[k] for p in parts]))
+
+
+@pytest.mark.parametrize(
+    ("ops", "consts", "match"),
+    [
+        ([[99, -1, -1]], [0.0], "unknown opcode"),
+        ([[1, 3, -1]], [0.0], "axis"),
+        ([[1, 0, -1], [3, 0, 1]], [0.0, 0.0], "earlier register"),
+        ([[1, 0, -1], [2, 5, -1]], [0.0, 0.0], "earlier register"),
+        (np.zeros((0, 3), np.int32), np.zeros(0), "empty"),
+        ([[1, 0, -1]], [0.0, 1.0], "consts"),
+        ([[1, 0]], [0.0], "shape"),
+    ],
+)
+def test_bad_programs_raise(ops, consts, match):
+    lo = np.zeros((2, 3))
+    with pytest.raises(ValueError, match=match):
+        evaluate_intervals(np.asarray(ops, np.int32), np.asarray(consts), lo, lo + 1, True, False)
+
+
+# -- cell pruning ------------------------------------------------------------------------
+
+
+def _outside_reference(lo, hi, owner, points, offsets, neighbour, skip=None):
+    """The numpy rule the core replaced (proven_cells before issue 13's speed-up)."""
+    out = np.zeros(len(lo), bool)
+    for i in range(len(lo)):
+        p = points[owner[i]]
+        for q_id in neighbour[offsets[owner[i]] : offsets[owner[i] + 1]]:
+            if skip is not None and q_id == skip[i]:
+                continue
+            w = points[q_id] - p
+            a = np.where(w > 0, lo[i], hi[i]) @ w
+            c = (0.5 * (p + points[q_id])) @ w
+            if a > c + 1e-12 * (abs(c) + np.linalg.norm(w) * np.linalg.norm(p)):
+                out[i] = True
+                break
+    return out
+
+
+def _neighbours(points):
+    indptr, indices = Delaunay(points).vertex_neighbor_vertices
+    return indptr.astype(np.int64), indices.astype(np.int64)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), with_skip=st.booleans())
+def test_cell_pruning_matches_the_bisector_rule(seed, with_skip):
+    rng = np.random.default_rng(seed)
+    points = rng.uniform(-1, 1, (40, 3))
+    offsets, neighbour = _neighbours(points)
+    owner = rng.integers(0, 40, 200)
+    c = rng.uniform(-1.2, 1.2, (200, 3))
+    w = rng.uniform(0, 0.3, (200, 3))
+    lo, hi = c - w, c + w
+    skip = neighbour[offsets[owner]] if with_skip else None
+    got = boxes_outside_cells(lo, hi, owner, points, offsets, neighbour, skip).view(bool)
+    ref = _outside_reference(lo, hi, owner, points, offsets, neighbour, skip)
+    assert np.array_equal(got, ref)
+    # A box holding its owner's sample is never outside the owner's cell.
+    inside = ((lo <= points[owner]) & (points[owner] <= hi)).all(axis=1)
+    assert not got[inside].any()
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        ({"owner": np.array([40])}, "owner ids"),
+        ({"owner": np.array([0, 1])}, "owner"),
+        ({"neighbour_shift": 100}, "neighbour ids"),
+        ({"offsets": np.zeros(3, np.int64)}, "offsets"),
+        ({"skip": np.array([0, 1])}, "skip"),
+    ],
+)
+def test_cell_pruning_rejects_bad_ids(change, match):
+    points = np.random.default_rng(0).uniform(-1, 1, (40, 3))
+    offsets, neighbour = _neighbours(points)
+    args = {"owner": np.array([0]), "offsets": offsets, "skip": None}
+    args.update({k: v for k, v in change.items() if k != "neighbour_shift"})
+    if "neighbour_shift" in change:
+        neighbour = neighbour + change["neighbour_shift"]
+    lo = np.zeros((1, 3))
+    with pytest.raises(ValueError, match=match):
+        boxes_outside_cells(lo, lo + 0.1, args["owner"], points, args["offsets"], neighbour,
+                            args["skip"])  # fmt: skip
