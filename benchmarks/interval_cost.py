@@ -1,9 +1,10 @@
 """Cost of one interval evaluation (f and its gradient, mean-value form) against the
-number of boxes: the fixed cost per call and the cost per box.
+number of boxes, on the core's evaluator (C++) and on the numpy one.
 
-    python benchmarks/interval_cost.py [--surface torus]
+    python benchmarks/interval_cost.py [--surface torus|all] [--sizes 1 100 3000]
 
-Prints one line per batch size: milliseconds per call, microseconds per box.
+Prints one line per surface and batch size: microseconds per box on each
+evaluator and their ratio, the two timed alternately.
 """
 
 from __future__ import annotations
@@ -12,26 +13,43 @@ import argparse
 import time
 
 import numpy as np
+from rdmesh.surfaces import intervals
 from rdmesh.surfaces.builtin import BUILTIN_EXPRESSIONS
 from rdmesh.surfaces.expressions import parse_expression
 
 
+def _per_box(expr, lo, hi, native: bool, seconds: float) -> float:
+    intervals.NATIVE = native
+    calls, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        expr.interval_gradient(lo, hi, mean_value=True)
+        calls += 1
+    return (time.perf_counter() - t0) / calls / len(lo)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--surface", default="torus", choices=sorted(BUILTIN_EXPRESSIONS))
-    ap.add_argument("--seconds", type=float, default=1.0, help="time per batch size")
+    ap.add_argument("--surface", default="torus", choices=[*sorted(BUILTIN_EXPRESSIONS), "all"])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[1, 100, 3000, 100_000])
+    ap.add_argument("--seconds", type=float, default=0.5, help="time per size and evaluator")
     args = ap.parse_args(argv)
-    expr = parse_expression(BUILTIN_EXPRESSIONS[args.surface])
+    names = list(BUILTIN_EXPRESSIONS) if args.surface == "all" else [args.surface]
     rng = np.random.default_rng(0)
-    for n in (1, 100, 1000, 10_000, 100_000):
-        lo = rng.uniform(-1, 1, (n, 3))
-        hi = lo + 0.01
-        calls, t0 = 0, time.perf_counter()
-        while time.perf_counter() - t0 < args.seconds:
-            expr.interval_gradient(lo, hi, mean_value=True)
-            calls += 1
-        dt = (time.perf_counter() - t0) / calls
-        print(f"{n:>7} boxes: {dt * 1e3:8.2f} ms per call, {dt / n * 1e6:9.2f} us per box")
+    print("| surface | boxes | numpy µs/box | core µs/box | numpy ÷ core |")
+    print("|---|---:|---:|---:|---:|")
+    for name in names:
+        expr = parse_expression(BUILTIN_EXPRESSIONS[name])
+        for n in args.sizes:
+            # Boxes of mixed sizes in [-2, 2]^3, as the proofs' subdivisions make them.
+            centre = rng.uniform(-2, 2, (n, 3))
+            half = rng.uniform(0, 0.1, (n, 3))
+            lo, hi = centre - half, centre + half
+            t = {True: [], False: []}
+            for native in (False, True, True, False):
+                t[native].append(_per_box(expr, lo, hi, native, args.seconds / 2))
+            numpy_, core = min(t[False]), min(t[True])
+            print(f"| {name} | {n} | {numpy_ * 1e6:.2f} | {core * 1e6:.2f} | {numpy_ / core:.1f} |")
+    intervals.NATIVE = True
     return 0
 
 
