@@ -133,6 +133,7 @@ PYBIND11_MODULE(_rdt, m) {
   m.attr("RESTRICTED") = static_cast<int>(rdmesh::RESTRICTED);
   m.attr("BAD") = static_cast<int>(rdmesh::BAD);
   m.attr("OUTWARD") = static_cast<int>(rdmesh::OUTWARD);
+  m.attr("KNOWN") = static_cast<int>(rdmesh::KNOWN);
   m.attr("TOPO") = static_cast<int>(rdmesh::TOPO);
   register_volume_sampler(m);
 
@@ -476,6 +477,13 @@ PYBIND11_MODULE(_rdt, m) {
           [](RestrictedDelaunay& self) {
             return locked(self, [&] { return self.number_of_samples(); });
           })
+      .def_property_readonly(
+          "reused_facets",
+          [](RestrictedDelaunay& self) {
+            return locked(self, [&] { return self.reused_facets(); });
+          },
+          "Facets whose status was derived from a KNOWN one instead of being handed "
+          "out again (see changed_facets), since construction.")
       .def_property_readonly(
           "number_of_cells",
           [](RestrictedDelaunay& self) {

@@ -200,6 +200,21 @@ bool RestrictedDelaunay::round_unfinished() const {
   return !pending_.empty() || cursor_ < fresh_.size() || !gathered_all_;
 }
 
+namespace {
+
+// The side of a restricted facet that moves its centre in compact_centres:
+// the outward side, or the only restricted one (a fresh cell across an old
+// one keeps no status until its round is evaluated; the old side must keep a
+// valid centre for changed_facets to reuse).
+bool owns_centre(Cell_handle c, int i, std::uint8_t fl) {
+  if (!(fl & RESTRICTED)) return false;
+  if (fl & OUTWARD) return true;
+  const Cell_handle nb = c->neighbor(i);
+  return !(nb->info().flags[nb->index(c)] & RESTRICTED);
+}
+
+}  // namespace
+
 void RestrictedDelaunay::compact_centres() {
   // Restricted facets are about two per sample; entries of destroyed cells
   // pile up otherwise.
@@ -209,7 +224,7 @@ void RestrictedDelaunay::compact_centres() {
   for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c)
     for (int i = 0; i < 4; ++i) {
       const std::uint8_t fl = c->info().flags[i];
-      live += c->info().centre[i] >= 0 && (fl & RESTRICTED) && (fl & OUTWARD);
+      live += c->info().centre[i] >= 0 && owns_centre(c, i, fl);
     }
   std::vector<double> kept;
   kept.reserve(3 * live);
@@ -223,7 +238,7 @@ void RestrictedDelaunay::compact_centres() {
         info.centre[i] = -1;
         continue;
       }
-      if (!(fl & OUTWARD)) continue;  // the outward side moves it for both
+      if (!owns_centre(c, i, fl)) continue;  // the other side moves it for both
       const auto idx = static_cast<std::int32_t>(kept.size() / 3);
       kept.insert(kept.end(), centres_.begin() + 3 * old,
                   centres_.begin() + 3 * old + 3);
@@ -306,6 +321,10 @@ ChangedFacets RestrictedDelaunay::changed_facets(
       const CellInfo& ni = nb->info();
       if (ni.stamp == round_ && ni.order < c->info().order) continue;
       const int j = nb->index(c);
+      // An old neighbour keeps the facet's last status (read before it goes).
+      const bool old_side = ni.stamp != round_;
+      const std::uint8_t was = nb->info().flags[j];
+      const std::int32_t was_centre = nb->info().centre[j];
       nb->info().flags[j] = 0;  // the dual moved: old status is stale
       std::array<std::int64_t, 3> t{};
       bool skip = dt_.is_infinite(c) || dt_.is_infinite(nb);
@@ -325,6 +344,7 @@ ChangedFacets RestrictedDelaunay::changed_facets(
       }
       const Vec3 a0 = a, b0 = b;
       if (!clip(a, b)) continue;
+      if (old_side && reuse(c, i, nb, j, was, was_centre, a, b)) continue;
       fault_point_for_testing();
       std::sort(t.begin(), t.end());
       out.tri.insert(out.tri.end(), t.begin(), t.end());
@@ -351,6 +371,42 @@ ChangedFacets RestrictedDelaunay::changed_facets(
   }
   cursor_ = cursor;
   return out;
+}
+
+bool RestrictedDelaunay::reuse(Cell_handle c, int i, Cell_handle nb, int j, std::uint8_t was,
+                               std::int32_t centre, const Vec3& a, const Vec3& b) {
+  // Inserting samples only shrinks a Voronoi edge, on the same line, and the
+  // facet's circumradius (its sampling density) and criteria stay: the new
+  // segment lies in the old one, which a clean search covered.
+  if (!(was & KNOWN)) return false;
+  std::uint8_t f = KNOWN;
+  std::int32_t idx = -1;
+  if (was & RESTRICTED) {
+    if (centre < 0 || static_cast<std::size_t>(centre) >= centres_.size() / 3) return false;
+    const double* x = &centres_[3 * static_cast<std::size_t>(centre)];
+    const Vec3 d{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    const Vec3 v{x[0] - a[0], x[1] - a[1], x[2] - a[2]};
+    const double dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    if (!(dd > 0.0)) return false;
+    const double t = (v[0] * d[0] + v[1] * d[1] + v[2] * d[2]) / dd;
+    const double vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    // Off the line (rounding aside) or at an end of the new segment: search again.
+    constexpr double kMargin = 1e-9;
+    if (vv - t * t * dd > kMargin * kMargin * dd) return false;
+    if (std::fabs(t) <= kMargin || std::fabs(t - 1.0) <= kMargin) return false;
+    if (t > 0.0 && t < 1.0) {
+      f = was & (LABELS | KNOWN);  // the same crossing: same centre, same criteria
+      idx = centre;
+    }  // else the one crossing left the segment: none is on it
+  }
+  const bool restricted = (f & RESTRICTED) != 0;
+  // nb's OUTWARD bit (outside towards its neighbour, now c) still holds.
+  nb->info().flags[j] = f | (restricted ? (was & OUTWARD) : 0);
+  c->info().flags[i] = f | (restricted && !(was & OUTWARD) ? OUTWARD : 0);
+  nb->info().centre[j] = idx;
+  c->info().centre[i] = idx;
+  ++reused_;
+  return true;
 }
 
 void RestrictedDelaunay::withdraw_chunk(std::uint64_t serial) {
@@ -385,6 +441,7 @@ void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
     const int i = side.i, j = side.j;
     std::uint8_t f = flags[k] & LABELS;
     if (!(f & RESTRICTED)) f = 0;
+    f |= flags[k] & KNOWN;
     // Segment runs c -> nb unless it was swapped for canonical order.
     const bool out_to_nb = (f & RESTRICTED) &&
                            (((flags[k] & OUTWARD) != 0) != (side.swapped != 0));

@@ -44,6 +44,13 @@ enum FacetFlag : std::uint8_t {
   OUTWARD = 4,
   TOPO = 8,
   LABELS = RESTRICTED | BAD | TOPO,
+  // Python: the facet's crossing search was clean: no crossing, or one
+  // transversal crossing (the surface centre), no failed root search.  A
+  // facet keeps its line, its circumradius (so its sampling density) and its
+  // criteria when an insertion only shrinks its dual segment, so such a
+  // facet's new status follows from where the old centre lies (see
+  // changed_facets) and it is not handed out again.
+  KNOWN = 16,
 };
 
 // Cells record the insertion (epoch) that created them, read from this
@@ -185,6 +192,9 @@ class RestrictedDelaunay {
   std::vector<double> voronoi_cell_boxes(const std::int64_t* ids, std::size_t n);
 
   std::size_t number_of_samples() const { return samples_.size(); }
+  // Facets whose new status changed_facets derived from a KNOWN old one
+  // instead of handing them out, since construction.
+  std::uint64_t reused_facets() const { return reused_; }
   std::size_t number_of_cells() const { return dt_.number_of_finite_cells(); }
   std::vector<double> samples() const;
 
@@ -206,6 +216,9 @@ class RestrictedDelaunay {
   bool is_dummy(Vertex_handle v) const;
   bool clip(std::array<double, 3>& a, std::array<double, 3>& b) const;
   bool gather_more();
+  bool reuse(Cell_handle c, int i, Cell_handle nb, int j, std::uint8_t was,
+             std::int32_t centre, const std::array<double, 3>& a,
+             const std::array<double, 3>& b);
   void mark_fresh(Cell_handle c);
   bool round_unfinished() const;
   void start_round();
@@ -231,6 +244,7 @@ class RestrictedDelaunay {
   };
   std::deque<Chunk> pending_;
   std::uint64_t serial_ = 0;  // chunks handed out so far
+  std::uint64_t reused_ = 0;  // see reused_facets()
   mutable std::mutex mutex_;
   std::vector<Vertex_handle> round_vertices_;  // inserted before this round
   // Cells new in this round, gathered lazily (so the first chunk of a round

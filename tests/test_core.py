@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 from meshcheck import face_normals
-from rdmesh.core import BAD, OUTWARD, RESTRICTED, _rdt
+from rdmesh.core import BAD, KNOWN, OUTWARD, RESTRICTED, _rdt
 from rdmesh.refine.criteria import FacetCriteria, circumradii
 from rdmesh.refine.facets import DualSamples, evaluate_facets
 from rdmesh.surfaces import SURFACES
@@ -212,9 +212,10 @@ def _as_set(tri):
     return {tuple(t) for t in np.sort(tri, axis=1).tolist()}
 
 
-def _drive_and_compare(surface, seeds, criteria, max_rounds=60):
+def _drive_and_compare(surface, seeds, criteria, max_rounds=60, known=False):
     """A hand-written facet-stage loop; after every round the core's restricted
-    set must equal a from-scratch recomputation."""
+    set must equal a from-scratch recomputation. ``known``: mark clean facets
+    KNOWN, so that the core derives their next status itself."""
     rdt = _rdt.RestrictedDelaunay(surface.centre, surface.radius)
     rdt.insert(seeds)
     rounds = 0
@@ -228,6 +229,8 @@ def _drive_and_compare(surface, seeds, criteria, max_rounds=60):
         r = ev.restricted
         bad = _bad(criteria, P[tri], ev)
         flags = r * RESTRICTED | bad * BAD | (r & ev.outward) * OUTWARD
+        if known:
+            flags |= ev.clean * KNOWN
         rdt.update_facets(flags.astype(np.uint8), ev.centre)
         rdt.check()
 
@@ -255,16 +258,20 @@ def _drive_and_compare(surface, seeds, criteria, max_rounds=60):
     return rdt, rounds
 
 
+@pytest.mark.parametrize("known", [False, True])
 @pytest.mark.parametrize(
     ("name", "sample", "radius_bound"),
     [("sphere", _sphere_sample, 0.15), ("torus", _torus_sample, 0.08)],
 )
-def test_incremental_restricted_set_matches_recomputation(name, sample, radius_bound):
+def test_incremental_restricted_set_matches_recomputation(name, sample, radius_bound, known):
     surface = SURFACES[name].make()
     seeds = sample(300, np.random.default_rng(5))
     criteria = FacetCriteria(30.0, radius_bound)
-    rdt, rounds = _drive_and_compare(surface, seeds, criteria)
+    rdt, rounds = _drive_and_compare(surface, seeds, criteria, known=known)
     assert rounds > 3  # the comparison ran on several incremental rounds
+    # With KNOWN flags the core derived many facets' status itself (and the
+    # comparison above found it right); without them it never does.
+    assert (rdt.reused_facets > 100) if known else (rdt.reused_facets == 0)
     assert len(rdt.facets(BAD)[0]) == 0
     assert rdt.number_of_samples > 2 * len(seeds)
 

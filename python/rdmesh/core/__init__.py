@@ -14,12 +14,16 @@ Voronoi-cell pruning of the proven topological-ball tests.
 Facet flag bits (set by Python, kept by the core per facet):
 ``RESTRICTED`` (the dual meets the surface), ``BAD`` (fails a criterion),
 ``OUTWARD`` (outside lies along the dual segment's direction), ``TOPO`` (the
-dual crosses several times or tangentially).
+dual crosses several times or tangentially), ``KNOWN`` (the crossing search
+was clean: no crossing, or one transversal crossing, with no failed root
+search; the core then derives the facet's next status itself when an
+insertion only shortens its dual, and does not hand it out again).
 """
 
 from ._rdt import (
     BAD,
     CGAL_VERSION,
+    KNOWN,
     OUTWARD,
     RESTRICTED,
     TOPO,
@@ -37,6 +41,7 @@ from ._rdt import (
 __all__ = [
     "BAD",
     "CGAL_VERSION",
+    "KNOWN",
     "MeshDistance",
     "OUTWARD",
     "RESTRICTED",

@@ -11,6 +11,7 @@ RESTRICTED: Final[int]
 BAD: Final[int]
 OUTWARD: Final[int]
 TOPO: Final[int]
+KNOWN: Final[int]
 
 _SegmentSamples = tuple[
     npt.NDArray[np.int64],  # (k+1,) offsets
@@ -156,6 +157,8 @@ class RestrictedDelaunay:
     def number_of_samples(self) -> int: ...
     @property
     def number_of_cells(self) -> int: ...
+    @property
+    def reused_facets(self) -> int: ...
     def check(self) -> None: ...
 
 class VolumeSampler:

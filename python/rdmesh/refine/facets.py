@@ -44,6 +44,9 @@ class FacetEval:
     outward: np.ndarray  # (k,) bool: outside lies along the segment direction
     tangential: np.ndarray  # (k,) bool
     failed: int = 0  # segments whose root search failed (see Crossings.failed)
+    #: (k,) bool: no crossing or one transversal one, and no failed root search
+    #: (the core's KNOWN flag).
+    clean: np.ndarray | None = None
 
     @property
     def restricted(self) -> np.ndarray:
@@ -103,7 +106,8 @@ def evaluate_facets(
     """
     k = len(seg)
     out = FacetEval(
-        np.zeros(k, np.int64), np.zeros((k, 3)), np.zeros(k), np.zeros(k, bool), np.zeros(k, bool)
+        np.zeros(k, np.int64), np.zeros((k, 3)), np.zeros(k), np.zeros(k, bool), np.zeros(k, bool),
+        clean=np.ones(k, bool),
     )
     if k == 0:
         return out
@@ -122,7 +126,10 @@ def evaluate_facets(
     u = d / np.where(length > 0, length, 1.0)[:, None]
     xatol = ROOT_ATOL * surface.radius
     cr = line_crossings(surface, start, u, flat, xatol, interior_values, end_values)
+    out.clean = np.ones(k, bool)
+    out.clean[cr.failed] = False
     if cr.segment.size == 0:
+        out.failed = len(cr.failed)
         return out
     segment = cr.segment
     out.n_cross = np.bincount(segment, minlength=k)
@@ -150,6 +157,7 @@ def evaluate_facets(
     # violation), never use the bracket as a surface point.
     out.tangential[cr.failed] |= out.n_cross[cr.failed] > 0
     out.failed = len(cr.failed)
+    out.clean &= (out.n_cross <= 1) & ~out.tangential
     return out
 
 

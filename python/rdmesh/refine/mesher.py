@@ -311,6 +311,7 @@ def _result(
         samples=len(m.vertices),
         inserted=dict(m.samples.inserted),
         facets_evaluated=m.pipeline.evaluated,
+        facets_reused=m.pipeline.rdt.reused_facets,
         phase_seconds={k: round(v, 4) for k, v in timing.items()},
         unresolved=len(mesh.unresolved),
         loop_facets_tested=m.memo.tested,

@@ -156,6 +156,7 @@ class FacetPipeline:
                 | (bad * core.BAD)
                 | (topo * core.TOPO)
                 | ((r & ev.outward) * core.OUTWARD)
+                | (ev.clean * core.KNOWN)
             )
             centres[sl] = ev.centre
 
