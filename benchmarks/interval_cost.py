@@ -48,7 +48,8 @@ def main(argv: list[str] | None = None) -> int:
             for native in (False, True, True, False):
                 t[native].append(_per_box(expr, lo, hi, native, args.seconds / 2))
             numpy_, core = min(t[False]), min(t[True])
-            print(f"| {name} | {n} | {numpy_ * 1e6:.2f} | {core * 1e6:.2f} | {numpy_ / core:.1f} |")
+            ratio = numpy_ / core
+            print(f"| {name} | {n} | {numpy_ * 1e6:.2f} | {core * 1e6:.2f} | {ratio:.1f} |")
     intervals.NATIVE = True
     return 0
 
