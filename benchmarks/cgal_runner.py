@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Build and run the CGAL reference mesher (``benchmarks/cgal_reference``).
 
-Standard library only.  Nothing is printed; progress goes to the
+Standard library only (``write_volume`` imports numpy).  Nothing is printed; progress goes to the
 ``logging`` logger of this module.
 
 Typical use::
@@ -27,6 +27,16 @@ same without it.  ``surface_mesher_boundary`` is make_surface_mesh with
 The floor of the benchmarks, CGAL's bulk
 ``Delaunay_triangulation_3(begin, end)`` of given points, runs with
 ``delaunay_command(exe, points_file)`` (points written by ``write_points``).
+
+``mesh_3_image`` meshes the isosurface of a gray-level volume with Mesh_3's
+gray-image domain (trilinear interpolation, values above the isovalue
+inside, closed by the samples' box): ``write_volume(path, volume)`` writes
+the samples as raw little-endian float32, ``image_command(exe, path, shape,
+spacing, origin, isovalue, ...)`` is the command line; ``init`` is
+``"random"`` (make_mesh_3's own initial points) or ``"components"`` (a seed
+per connected component of the samples above the isovalue first).  Its JSON
+has ``surface`` null and ``dims``, ``spacing``, ``origin``, ``isovalue``,
+``init`` instead of ``bounding_sphere``.
 """
 
 from __future__ import annotations
@@ -45,16 +55,19 @@ __all__ = [
     "BOUNDING_SPHERES",
     "CLIPPED_SURFACES",
     "DEFAULT_BUILD_DIR",
+    "IMAGE_INITS",
     "MESHERS",
     "SOURCE_DIR",
     "SURFACES",
     "CgalReferenceError",
     "build_reference",
     "delaunay_command",
+    "image_command",
     "parse_reference_output",
     "reference_command",
     "run_reference",
     "write_points",
+    "write_volume",
 ]
 
 logger = logging.getLogger(__name__)
@@ -75,6 +88,9 @@ SURFACES = (
     "two_spheres",
     "blob_line",
 )
+
+#: How ``mesh_3_image`` finds its initial points.
+IMAGE_INITS = ("random", "components")
 
 #: Surfaces that leave their bounding sphere (``tests/clipped_surfaces.py``);
 #: only ``surface_mesher_boundary`` meshes them.
@@ -278,6 +294,71 @@ def write_points(path: PathLike, points: Any) -> None:
 def delaunay_command(exe: PathLike, points: PathLike) -> list[str]:
     """The command timing CGAL's bulk Delaunay_triangulation_3 of a points file."""
     return [str(exe), "--mesher", "delaunay", "--points", str(points)]
+
+
+def write_volume(path: PathLike, volume: Any) -> None:
+    """Write a 3-D volume as ``mesh_3_image`` reads it: raw little-endian
+    float32, the first array axis (x) fastest."""
+    import numpy as np
+
+    vol = np.asarray(volume)
+    if vol.ndim != 3:
+        raise ValueError(f"a volume is 3-D, got shape {vol.shape}")
+    vol.astype("<f4").ravel(order="F").tofile(str(path))
+
+
+def _triple(name: str, values: Sequence[float]) -> str:
+    if len(values) != 3:
+        raise ValueError(f"{name} needs 3 values, got {values!r}")
+    return ",".join(_number(name, v) for v in values)
+
+
+def image_command(
+    exe: PathLike,
+    image: PathLike,
+    shape: Sequence[int],
+    spacing: Sequence[float],
+    origin: Sequence[float],
+    isovalue: float,
+    angle: float,
+    radius: float,
+    distance: float,
+    error_bound: float | None = None,
+    *,
+    init: str = "random",
+    seed: int | None = None,
+    out: PathLike | None = None,
+) -> list[str]:
+    """The command meshing a volume written by :func:`write_volume` with
+    ``mesh_3_image`` (``shape`` its array shape, sample ``[i, j, k]`` at
+    ``origin + (i, j, k) * spacing``, inside where it exceeds ``isovalue``).
+
+    Raises ValueError for an unknown ``init`` or a non-finite number.
+    """
+    if init not in IMAGE_INITS:
+        raise ValueError(f"unknown init {init!r}; expected one of {IMAGE_INITS}")
+    if len(shape) != 3:
+        raise ValueError(f"shape needs 3 values, got {shape!r}")
+    cmd = [
+        str(exe),
+        "--mesher", "mesh_3_image",
+        "--image", str(image),
+        "--dims", ",".join(str(int(n)) for n in shape),
+        "--spacing", _triple("spacing", spacing),
+        "--origin", _triple("origin", origin),
+        "--isovalue", _number("isovalue", isovalue),
+        "--init", init,
+        "--angle", _number("angle", angle),
+        "--radius", _number("radius", radius),
+        "--distance", _number("distance", distance),
+    ]  # fmt: skip
+    if error_bound is not None:
+        cmd += ["--error-bound", _number("error_bound", error_bound)]
+    if seed is not None:
+        cmd += ["--seed", str(int(seed))]
+    if out is not None:
+        cmd += ["--out", str(out)]
+    return cmd
 
 
 def parse_reference_output(

@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Volumes as suite rows: rdmesh.VolumeSurface (cubic) against marching cubes.
+"""Volumes as suite rows: rdmesh.VolumeSurface (cubic) against CGAL's gray-image
+Mesh_3 and marching cubes.
 
 Cases (volumes of known topology, from ``tests/volumes.py``):
 
@@ -18,20 +19,40 @@ vertices, never below the case's smallest scale (where its topology is
 known); rdmesh meshes the same volume with radius bound = distance bound
 ``r = sqrt(0.7 area / size)``.
 
-Meshers: ``rdmesh`` (``VolumeSurface``, cubic B-spline, closed by the box)
-and ``marching_cubes`` (``skimage.measure.marching_cubes`` on the samples).
-CGAL's gray-level image mesher is not run: it reads images through CGAL's
-ImageIO, which the reference program does not build.
+Meshers:
+
+- ``rdmesh``: ``VolumeSurface`` (cubic B-spline, closed by the box);
+- ``cgal_mesh_3_image``: CGAL's Mesh_3 on its gray-image domain
+  (``Labeled_mesh_domain_3::create_gray_image_mesh_domain``, the reference
+  program's ``mesh_3_image`` mode), what CT/MRI users mesh volumes with.
+  The same volume (written as raw float32, not timed), isovalue and criteria
+  as rdmesh, ``params::manifold()``, the suite's error bound. CGAL
+  interpolates the samples trilinearly (its only interpolation for gray
+  images), puts values above the isovalue inside (rdmesh's
+  ``inside="greater"``) and everything outside the samples' box outside, so
+  both mesh the same object up to the interpolation. Initial points are
+  ``make_mesh_3``'s own (random segments through the domain's box, as CGAL's
+  ``mesh_3D_gray_image`` example);
+- ``cgal_mesh_3_image_components``: the same, seeded first with a point per
+  connected component of the samples above the isovalue
+  (``initialize_triangulation_from_gray_image``, then ``refine_mesh_3``, as
+  CGAL's ``mesh_3D_gray_image_with_custom_initialization`` example): the
+  random initial points can miss small components, such as the phantom's
+  bones;
+- ``marching_cubes``: ``skimage.measure.marching_cubes`` on the samples.
 
 Quality: the suite's fields, the Hausdorff distance to the cubic interpolant
-(``metrics.hausdorff``: reference points on it, Newton projection onto it),
-and the Euler characteristic of each component against the known ones.
+(``metrics.hausdorff``: reference points on it, Newton projection onto it;
+CGAL and marching cubes mesh the trilinear one, so part of their distance is
+the difference between the two interpolants), and the Euler characteristic
+of each component against the known ones.
 """
 
 from __future__ import annotations
 
 import math
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -41,6 +62,7 @@ from typing import Any
 
 import numpy as np
 from inputs import VERTICES_PER_AREA, InputKind, quality_entry
+from meshers import Cgal, build_cgal
 from meshfile import mesh_run
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -53,6 +75,8 @@ __all__ = ["CASES", "INPUT", "VolumeCase", "noisy_torus", "phantom", "torus"]
 TORUS_BOX = ((-1.6, -1.6, -0.6), (1.6, 1.6, 0.6))
 #: Marching cubes vertices per (area / spacing^2) (as ``meshers.py`` uses).
 _MC_DENSITY = 1.5
+#: The CGAL rows: mesher name -> how the reference program finds initial points.
+CGAL_IMAGE = {"cgal_mesh_3_image": "random", "cgal_mesh_3_image_components": "components"}
 
 
 def torus(scale: float = 1.0) -> tuple[np.ndarray, dict]:
@@ -137,12 +161,66 @@ def _surface(case: str, scale: float):
     return vol, kw, rdmesh.VolumeSurface(vol, **kw)
 
 
+class CgalImage(Cgal):
+    """CGAL's Mesh_3 on the gray-image domain of a case's volume.
+
+    The volume goes to the program as a raw float32 file, written (once per
+    case and scale, not timed) to a directory removed with the adapter.
+    """
+
+    def __init__(self, name: str, exe: Path | None) -> None:
+        super().__init__(name, exe)
+        self.init = CGAL_IMAGE[name]
+        self._dir = tempfile.TemporaryDirectory(prefix="rdmesh-volume-")
+        self._files: dict[tuple[str, float], Path] = {}
+
+    def volume_file(self, case: str, scale: float) -> Path:
+        """The raw file of ``case`` at ``scale`` (written on first use)."""
+        from cgal_runner import write_volume
+
+        key = (case, scale)
+        if key not in self._files:
+            vol, _, _ = _surface(case, scale)
+            path = Path(self._dir.name) / f"volume-{len(self._files)}.f32"
+            write_volume(path, vol)
+            self._files[key] = path
+        return self._files[key]
+
+    def command(self, case: dict, args, mesh_path: str | None) -> list[str]:
+        from cgal_runner import image_command
+
+        p = case["params"]
+        vol, kw, s = _surface(case["surface"], p["scale"])
+        return image_command(
+            self.exe,
+            self.volume_file(case["surface"], p["scale"]),
+            vol.shape,
+            s.spacing,
+            s.origin,
+            kw["isovalue"],
+            args.angle,
+            p["radius"],
+            p["distance"],
+            args.cgal_error_bound,
+            init=self.init,
+            seed=args.seed,
+            out=mesh_path,
+        )
+
+
 class VolumeInput(InputKind):
-    """Volumes of known topology: rdmesh (cubic) against marching cubes."""
+    """Volumes of known topology: rdmesh (cubic) against CGAL's gray-image
+    Mesh_3 and marching cubes."""
 
     name = "volume"
-    meshers = ("rdmesh", "marching_cubes")
-    labels = {"rdmesh": "rdmesh (VolumeSurface, cubic)", "marching_cubes": "marching cubes"}
+    meshers = ("rdmesh", *CGAL_IMAGE, "marching_cubes")
+    labels = {
+        "rdmesh": "rdmesh (VolumeSurface, cubic)",
+        "cgal_mesh_3_image": "CGAL Mesh_3, gray image (trilinear), make_mesh_3",
+        "cgal_mesh_3_image_components": "the same, one initial seed per component "
+        "(initialize_triangulation_from_gray_image)",
+        "marching_cubes": "marching cubes",
+    }
 
     def cases(self) -> tuple[str, ...]:
         return tuple(CASES)
@@ -153,6 +231,12 @@ class VolumeInput(InputKind):
         except ImportError as exc:
             return f"scikit-image is not installed ({exc})"
         return None
+
+    def adapter(self, mesher: str, record: dict, log) -> tuple[Any, str | None]:
+        if mesher not in CGAL_IMAGE:
+            return super().adapter(mesher, record, log)
+        exe, why = build_cgal(record, log)
+        return CgalImage(mesher, exe), why or self.check(mesher)
 
     def params(self, case: str, size: int) -> dict[str, Any]:
         n_base, area = _base(case)

@@ -45,6 +45,8 @@ COLORS = {
     "cgal_delaunay_floor": ("black", "x"),  # no surface: time and memory only
     "input": ("tab:gray", "P"),  # remeshing: the input mesh itself
     "pymeshlab": ("tab:brown", "*"),
+    "cgal_mesh_3_image": ("tab:pink", "p"),  # volumes: Mesh_3 on a gray image
+    "cgal_mesh_3_image_components": ("darkgreen", "h"),
 }
 
 _ANGLE_EDGES = np.linspace(0.0, 60.0, 121)

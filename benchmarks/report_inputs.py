@@ -19,7 +19,7 @@ from report import _e, _f, _size, _status, _table
 __all__ = ["TITLES", "input_names", "sections", "subset", "tables"]
 
 TITLES = {
-    "volume": "Volumes: VolumeSurface against marching cubes",
+    "volume": "Volumes: VolumeSurface against CGAL's gray-image Mesh_3 and marching cubes",
     "remesh": "Remeshing: MeshSurface against pymeshlab and the input",
     "clipped": "Clipped surfaces: manifold-with-boundary against CGAL and marching cubes",
 }
@@ -31,8 +31,12 @@ _NOTES = {
         "smallest scale); rdmesh meshes the same volume (cubic B-spline, closed by the box) "
         "with radius bound = distance bound r = sqrt(0.7 area / size). Hausdorff: to the "
         "cubic interpolant's isosurface, also in voxels (the smallest spacing); Euler: per "
-        "component, sorted, against the known list. CGAL's gray-level image mesher is not "
-        "run: it needs CGAL's ImageIO, which the reference program does not build."
+        "component, sorted, against the known list. CGAL: Mesh_3 on its gray-image domain "
+        "(reference program, `mesh_3_image`), the same volume, isovalue and criteria, "
+        "trilinear interpolation (CGAL's only one for gray images), values above the isovalue "
+        "inside and the box closing the surface as for rdmesh; `cgal_mesh_3_image` uses "
+        "make_mesh_3's own initial points, `cgal_mesh_3_image_components` first seeds every "
+        "connected component of the samples above the isovalue."
     ),
     "remesh": (
         "Inputs: marching-cubes meshes of built-in surfaces (a grid giving about the target "

@@ -218,3 +218,110 @@ def test_clipped_marching_cubes_stays_in_the_ball():
     assert np.linalg.norm(v, axis=1).max() <= 1.0
     t = metrics.topology_stats(v, f, 1, 0, expected_loops=2)
     assert t["topology_ok"] is True
+
+
+# ---------------------------------------------------------------------------
+# CGAL's gray-image Mesh_3 (the reference program's mesh_3_image mode)
+# ---------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def cgal_exe():
+    """The CGAL reference program (built on first use, a minute or two)."""
+    import cgal_runner
+
+    try:
+        return cgal_runner.build_reference()
+    except (cgal_runner.CgalReferenceError, OSError) as exc:
+        pytest.skip(f"CGAL reference not available: {exc}")
+
+
+def _mesh_image(exe, tmp_path, case: str, scale: float, size: int, init: str):
+    """Run mesh_3_image on a case's volume: the JSON result, the mesh, and the
+    volume's trilinear ``VolumeSurface`` (the object CGAL meshes)."""
+    import cgal_runner
+    import meshfile
+    import rdmesh
+
+    vol, kw = input_volume.CASES[case].build(scale)
+    lin = rdmesh.VolumeSurface(vol, interpolation="linear", **kw)
+    raw, off = tmp_path / "volume.f32", tmp_path / "mesh.off"
+    cgal_runner.write_volume(raw, vol)
+    r = input_volume.INPUT.params(case, size)["radius"]
+    cmd = cgal_runner.image_command(
+        exe, raw, vol.shape, lin.spacing, lin.origin, kw["isovalue"], 30, r, r, init=init, out=off
+    )
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
+    out = cgal_runner.parse_reference_output(proc.returncode, proc.stdout, proc.stderr)
+    v, f = metrics.compact(*meshfile.load_mesh(off))
+    return out, v, f, lin
+
+
+def test_write_volume_is_x_fastest_little_endian_float32(tmp_path):
+    import cgal_runner
+
+    vol = np.arange(24, dtype=float).reshape(2, 3, 4)  # vol[i, j, k] = 12 i + 4 j + k
+    cgal_runner.write_volume(tmp_path / "v.f32", vol)
+    data = np.fromfile(tmp_path / "v.f32", dtype="<f4")
+    i, j, k = 1, 2, 3
+    assert data.size == 24 and data[i + 2 * (j + 3 * k)] == vol[i, j, k]
+    cmd = cgal_runner.image_command("exe", "v.f32", vol.shape, (1, 1, 1.5), (0, 0, -1), 0.5,
+                                    30, 0.1, 0.1, init="components")  # fmt: skip
+    assert cmd[cmd.index("--dims") + 1] == "2,3,4"
+    assert cmd[cmd.index("--spacing") + 1] == "1.0,1.0,1.5"
+    with pytest.raises(ValueError):
+        cgal_runner.image_command("exe", "v.f32", vol.shape, (1, 1, 1), (0, 0, 0), 0.5, 30,
+                                  0.1, 0.1, init="nosuch")  # fmt: skip
+
+
+@pytest.mark.slow  # builds the CGAL reference on a fresh machine (a minute or two)
+def test_cgal_image_mesher_closes_the_torus_volume(cgal_exe, tmp_path):
+    out, v, f, lin = _mesh_image(cgal_exe, tmp_path, "torus volume", 1.0, 2000, "random")
+    assert (out["closed"], out["components"], out["euler_characteristic"]) == (True, 1, 0)
+    t = metrics.topology_stats(v, f, 1, 0)
+    assert t["closed_manifold"] is True and t["topology_ok"] is True
+    lo, hi = lin.box
+    assert np.all(v >= lo) and np.all(v <= hi)
+    # On the trilinear isosurface of the same samples (so the same axes,
+    # spacing and origin), and outward: about the torus's volume 2 pi^2 R r^2.
+    assert np.abs(lin.f(v)).max() < 1e-3 * lin.spacing.min()
+    a, b, c = (v[f[:, i]] for i in range(3))
+    volume = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6
+    assert volume == pytest.approx(2 * np.pi**2 * 1.0 * 0.4**2, rel=0.05)
+
+
+@pytest.mark.slow
+def test_cgal_image_mesher_seeded_finds_the_phantom_bones(cgal_exe, tmp_path):
+    out, v, f, lin = _mesh_image(cgal_exe, tmp_path, "CT phantom", 1.0, 2000, "components")
+    assert (out["closed"], out["components"]) == (True, 3)
+    t = metrics.topology_stats(v, f, 3, 4, expected_per_component=[0, 2, 2])
+    assert t["closed_manifold"] is True and t["topology_ok"] is True
+    lo, hi = lin.box
+    assert np.all(v >= lo) and np.all(v <= hi)
+    # The phantom is asymmetric along every axis: a swapped axis would be far off.
+    assert np.abs(lin.f(v)).max() < 1e-3 * lin.spacing.min()
+    assert metrics.angle_stats(v, f, 30.0)["min_angle"] >= 30.0 - 0.5
+
+
+@pytest.mark.slow
+def test_cgal_image_rows_in_the_suite(tmp_path):
+    cmd = [sys.executable, str(BENCH / "suite.py"), "--out", str(tmp_path),
+           "--inputs", "volume", "--cases", "torus volume", "--sizes", str(SIZE),
+           "--repeats", "1", "--reference-samples", "3000",
+           "--meshers", "cgal_mesh_3_image", "cgal_mesh_3_image_components"]  # fmt: skip
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900, check=False)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    (path,) = tmp_path.glob("*.json")
+    cases = json.loads(path.read_text())["cases"]
+    assert {c["mesher"] for c in cases} == {"cgal_mesh_3_image", "cgal_mesh_3_image_components"}
+    for c in cases:
+        if c["status"] == "unavailable":
+            pytest.skip(f"CGAL reference not available: {c['note']}")
+        assert c["status"] == "ok", c
+        q = c["quality"]
+        assert q["topology"]["topology_ok"] is True
+        assert q["topology"]["closed_manifold"] is True
+        assert q["vertices"] == c["summary"]["vertices"] > 100
+        # Trilinear against the cubic interpolant: within a voxel.
+        assert 0 < q["hausdorff"]["two_sided"] < q["voxel"]
+        assert sum(q["min_angle_hist"]) == q["faces"]

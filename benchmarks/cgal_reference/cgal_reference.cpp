@@ -17,10 +17,32 @@
 // timed.  "evaluations" counts the calls of the implicit function made during
 // that call.
 //
+// "mesh_3_image" meshes the isosurface of a gray-level volume instead of a
+// named surface: Mesh_3's gray-image domain
+// (Labeled_mesh_domain_3::create_gray_image_mesh_domain, trilinear
+// interpolation of the samples), facet criteria only, params::manifold().
+// The volume is a raw file of little-endian float32 samples, x fastest
+// (sample (i, j, k) at byte 4 * (i + nx * (j + ny * k)), at position
+// origin + (i, j, k) * spacing); --dims, --spacing and --origin describe it,
+// so no image file format is involved.  Values above --isovalue are inside
+// (CGAL's default Greater_than threshold), everything outside the samples'
+// box is outside, so the surface is closed by the box.  "evaluations" counts
+// the interpolations of the volume.  Reading the file is not timed.
+// --init random (default) is make_mesh_3's own initial points (the domain's
+// random segments, as CGAL's mesh_3D_gray_image example); --init components
+// seeds every connected component of the samples above the isovalue first
+// (initialize_triangulation_from_gray_image, as CGAL's
+// mesh_3D_gray_image_with_custom_initialization example), then refine_mesh_3;
+// both calls are timed.
+//
 // Usage:
 //   cgal_reference --mesher surface_mesher|surface_mesher_boundary|mesh_3|mesh_3_fast
 //                  --surface NAME
 //                  --angle A --radius R --distance D
+//                  [--error-bound E] [--seed S] [--out mesh.off]
+//   cgal_reference --mesher mesh_3_image --image FILE --dims NX,NY,NZ
+//                  --spacing SX,SY,SZ [--origin OX,OY,OZ] --isovalue V
+//                  [--init random|components] --angle A --radius R --distance D
 //                  [--error-bound E] [--seed S] [--out mesh.off]
 //   cgal_reference --mesher delaunay --points FILE
 //
@@ -58,6 +80,11 @@
 #include <CGAL/facets_in_complex_3_to_triangle_mesh.h>
 #include <CGAL/make_mesh_3.h>
 
+// Mesh_3 on a gray-level image (ImageIO is header-only in CGAL 5.x)
+#include <CGAL/ImageIO.h>
+#include <CGAL/Image_3.h>
+#include <CGAL/Mesh_3/initialize_triangulation_from_gray_image.h>
+
 // The floor: a bulk 3D Delaunay triangulation
 #include <CGAL/Delaunay_triangulation_3.h>
 
@@ -70,6 +97,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <fstream>
 #include <iostream>
@@ -249,6 +277,13 @@ struct Options {
   unsigned int seed = 0;
   std::string out;
   std::string points;  // --points (mesher "delaunay")
+  // mesher "mesh_3_image"
+  std::string image;
+  std::array<std::size_t, 3> dims{};
+  std::array<double, 3> spacing{};
+  std::array<double, 3> origin{};
+  double isovalue = std::numeric_limits<double>::quiet_NaN();
+  std::string init;  // "random" or "components"
 };
 
 const char* const kUsage =
@@ -256,10 +291,19 @@ const char* const kUsage =
     "                      --surface NAME\n"
     "                      --angle A --radius R --distance D\n"
     "                      [--error-bound E] [--seed S] [--out mesh.off]\n"
+    "       cgal_reference --mesher mesh_3_image --image FILE --dims NX,NY,NZ\n"
+    "                      --spacing SX,SY,SZ [--origin OX,OY,OZ] --isovalue V\n"
+    "                      [--init random|components] --angle A --radius R --distance D\n"
+    "                      [--error-bound E] [--seed S] [--out mesh.off]\n"
     "       cgal_reference --mesher delaunay --points FILE\n"
     "  surface_mesher: make_surface_mesh with Manifold_tag;\n"
     "  surface_mesher_boundary: with Manifold_with_boundary_tag\n"
     "  mesh_3: make_mesh_3 with params::manifold(); mesh_3_fast: without it\n"
+    "  mesh_3_image: make_mesh_3 with params::manifold() on the gray-image domain\n"
+    "                of FILE (raw little-endian float32, x fastest, NX*NY*NZ\n"
+    "                samples); values > V inside, outside the box outside;\n"
+    "                --init components: one seed per connected component of the\n"
+    "                samples > V first (default random: make_mesh_3's own)\n"
     "  delaunay: time Delaunay_triangulation_3(begin, end) of the points of FILE\n"
     "            (x y z per line)\n"
     "  NAME: sphere ellipsoid torus thin_torus double_torus tanglecube\n"
@@ -300,9 +344,60 @@ unsigned int parse_seed(const std::string& opt, const std::string& text) {
   return static_cast<unsigned int>(v);
 }
 
+// "a,b,c": three fields of a comma-separated triple.
+std::array<std::string, 3> split_triple(const std::string& opt, const std::string& text) {
+  std::array<std::string, 3> parts;
+  std::size_t start = 0;
+  for (int i = 0; i < 3; ++i) {
+    const std::size_t comma = text.find(',', start);
+    if ((i < 2) == (comma == std::string::npos))
+      throw Usage_error{opt + " needs three comma-separated values, got '" + text + "'"};
+    parts[i] = text.substr(start, i < 2 ? comma - start : std::string::npos);
+    start = comma + 1;
+  }
+  return parts;
+}
+
+std::array<double, 3> parse_doubles(const std::string& opt, const std::string& text) {
+  const auto parts = split_triple(opt, text);
+  return {parse_double(opt, parts[0]), parse_double(opt, parts[1]), parse_double(opt, parts[2])};
+}
+
+std::array<std::size_t, 3> parse_dims(const std::string& opt, const std::string& text) {
+  std::array<std::size_t, 3> dims{};
+  const auto parts = split_triple(opt, text);
+  for (int i = 0; i < 3; ++i) {
+    dims[i] = parse_seed(opt, parts[i]);
+    // Trilinear interpolation needs two samples per axis.
+    if (dims[i] < 2) throw Usage_error{opt + " must be at least 2 along every axis"};
+  }
+  return dims;
+}
+
+// The image options: required for mesh_3_image, refused by the other meshers.
+void check_image_options(const Options& o, bool have_dims, bool have_spacing,
+                         bool have_origin) {
+  const bool image = o.mesher == "mesh_3_image";
+  const bool any = !o.image.empty() || have_dims || have_spacing || have_origin ||
+                   !std::isnan(o.isovalue) || !o.init.empty();
+  if (!image) {
+    if (any)
+      throw Usage_error{
+          "--image, --dims, --spacing, --origin, --isovalue and --init are only for --mesher "
+          "mesh_3_image"};
+    return;
+  }
+  if (!o.surface.empty()) throw Usage_error{"--mesher mesh_3_image takes --image, not --surface"};
+  if (o.image.empty()) throw Usage_error{"--image is required"};
+  if (!have_dims) throw Usage_error{"--dims is required"};
+  if (!have_spacing) throw Usage_error{"--spacing is required"};
+  if (std::isnan(o.isovalue)) throw Usage_error{"--isovalue is required"};
+}
+
 Options parse_args(int argc, char** argv) {
   Options o;
   bool have_angle = false, have_radius = false, have_distance = false;
+  bool have_dims = false, have_spacing = false, have_origin = false;
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     std::string value;
@@ -316,7 +411,8 @@ Options parse_args(int argc, char** argv) {
     if (arg == "-h" || arg == "--help") throw Usage_error{""};
     static const char* const known[] = {"--mesher", "--surface",     "--angle", "--radius",
                                         "--distance", "--error-bound", "--seed", "--out",
-                                        "--points"};
+                                        "--points", "--image", "--dims", "--spacing",
+                                        "--origin", "--isovalue", "--init"};
     bool is_known = false;
     for (const char* k : known) is_known = is_known || arg == k;
     if (!is_known) throw Usage_error{"unknown argument: '" + std::string(argv[i]) + "'"};
@@ -326,10 +422,11 @@ Options parse_args(int argc, char** argv) {
     }
     if (arg == "--mesher") {
       if (value != "surface_mesher" && value != "surface_mesher_boundary" &&
-          value != "mesh_3" && value != "mesh_3_fast" && value != "delaunay")
+          value != "mesh_3" && value != "mesh_3_fast" && value != "mesh_3_image" &&
+          value != "delaunay")
         throw Usage_error{"unknown mesher '" + value +
-                          "' (surface_mesher, surface_mesher_boundary, mesh_3, mesh_3_fast"
-                          " or delaunay)"};
+                          "' (surface_mesher, surface_mesher_boundary, mesh_3, mesh_3_fast,"
+                          " mesh_3_image or delaunay)"};
       o.mesher = value;
     } else if (arg == "--surface") {
       if (surfaces().count(value) == 0) throw Usage_error{"unknown surface '" + value + "'"};
@@ -359,6 +456,26 @@ Options parse_args(int argc, char** argv) {
     } else if (arg == "--points") {
       if (value.empty()) throw Usage_error{"--points needs a file name"};
       o.points = value;
+    } else if (arg == "--image") {
+      if (value.empty()) throw Usage_error{"--image needs a file name"};
+      o.image = value;
+    } else if (arg == "--dims") {
+      o.dims = parse_dims(arg, value);
+      have_dims = true;
+    } else if (arg == "--spacing") {
+      o.spacing = parse_doubles(arg, value);
+      for (double v : o.spacing)
+        if (!(v > 0.0)) throw Usage_error{"--spacing must be > 0 along every axis"};
+      have_spacing = true;
+    } else if (arg == "--origin") {
+      o.origin = parse_doubles(arg, value);
+      have_origin = true;
+    } else if (arg == "--isovalue") {
+      o.isovalue = parse_double(arg, value);
+    } else if (arg == "--init") {
+      if (value != "random" && value != "components")
+        throw Usage_error{"--init must be random or components"};
+      o.init = value;
     }
   }
   if (o.mesher.empty()) throw Usage_error{"--mesher is required"};
@@ -367,10 +484,16 @@ Options parse_args(int argc, char** argv) {
     return o;
   }
   if (!o.points.empty()) throw Usage_error{"--points is only for --mesher delaunay"};
-  if (o.surface.empty()) throw Usage_error{"--surface is required"};
+  check_image_options(o, have_dims, have_spacing, have_origin);
+  if (o.surface.empty() && o.mesher != "mesh_3_image")
+    throw Usage_error{"--surface is required"};
   if (!have_angle) throw Usage_error{"--angle is required"};
   if (!have_radius) throw Usage_error{"--radius is required"};
   if (!have_distance) throw Usage_error{"--distance is required"};
+  if (o.mesher == "mesh_3_image") {
+    if (o.init.empty()) o.init = "random";
+    return o;
+  }
   if (surfaces().at(o.surface).clipped && o.mesher != "surface_mesher_boundary")
     throw Usage_error{"surface '" + o.surface +
                       "' leaves its bounding sphere: only --mesher surface_mesher_boundary"};
@@ -515,12 +638,160 @@ std::vector<Point_3> read_points(const std::string& path) {
   return pts;
 }
 
+// ---------------------------------------------------------------------------
+// Mesh_3 on a gray-level image
+// ---------------------------------------------------------------------------
+
+// Little-endian float32 at `p`, whatever the host's byte order.
+float le_float(const unsigned char* p) {
+  const std::uint32_t u = std::uint32_t(p[0]) | std::uint32_t(p[1]) << 8 |
+                          std::uint32_t(p[2]) << 16 | std::uint32_t(p[3]) << 24;
+  float v;
+  std::memcpy(&v, &u, sizeof v);
+  return v;
+}
+
+// The raw volume of --image as a float32 CGAL image, x fastest, translation
+// 0: ImageIO keeps the translation in single precision, so the output is
+// shifted by --origin in double instead (shift_mesh).  Checks the file size,
+// that the samples are finite and that the isovalue is strictly between the
+// smallest and the largest sample (else there is no surface).
+CGAL::Image_3 read_volume(const Options& o) {
+  const auto [nx, ny, nz] = o.dims;
+  const std::size_t n = nx * ny * nz;
+  if (n / nx / ny != nz) throw Input_error{"--dims too large"};
+  std::ifstream is(o.image, std::ios::binary);
+  if (!is) throw Input_error{"cannot open image file '" + o.image + "'"};
+  _image* im = _createImage(nx, ny, nz, 1, o.spacing[0], o.spacing[1], o.spacing[2], 4,
+                            WK_FLOAT, SGN_SIGNED);
+  if (im == nullptr || im->data == nullptr) throw Input_error{"out of memory for the image"};
+  CGAL::Image_3 image(im);  // owns im from here on
+  // Read into the image's buffer and decode in place: no second copy.
+  unsigned char* bytes = static_cast<unsigned char*>(im->data);
+  is.read(reinterpret_cast<char*>(bytes), static_cast<std::streamsize>(4 * n));
+  if (static_cast<std::size_t>(is.gcount()) != 4 * n || is.peek() != EOF)
+    throw Input_error{"'" + o.image + "' does not hold " + std::to_string(n) +
+                      " float32 samples (--dims " + std::to_string(nx) + "," +
+                      std::to_string(ny) + "," + std::to_string(nz) + ")"};
+  float* data = static_cast<float*>(im->data);
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  for (std::size_t i = 0; i < n; ++i) {
+    data[i] = le_float(bytes + 4 * i);
+    if (!std::isfinite(data[i]))
+      throw Input_error{"'" + o.image + "': sample " + std::to_string(i) + " is not finite"};
+    lo = std::min(lo, data[i]);
+    hi = std::max(hi, data[i]);
+  }
+  if (!(lo < o.isovalue && o.isovalue < hi))
+    throw Input_error{"--isovalue " + std::to_string(o.isovalue) + " is not strictly between " +
+                      "the smallest and the largest sample (" + std::to_string(lo) + ", " +
+                      std::to_string(hi) + "): no surface"};
+  return image;
+}
+
+// The gray-image domain's label: 1 (inside) above the isovalue, 0 (outside)
+// otherwise, which is CGAL's default (Greater_than) and rdmesh's
+// inside="greater".  Given explicitly so that each interpolation of the
+// volume is counted.
+struct Counted_threshold {
+  double isovalue;
+  int operator()(double value) const {
+    ++g_evaluations;
+    return value > isovalue ? 1 : 0;
+  }
+};
+
+// CGAL's initial points from the image: a seed in every connected component
+// of the samples above the isovalue (the default threshold, not counted:
+// these are samples, not interpolations).  The function reports its progress
+// on std::cout, which holds our JSON line: that goes to std::cerr instead.
+template <typename C3t3, typename Domain, typename Criteria>
+void seed_components(C3t3& c3t3, const Domain& domain, const CGAL::Image_3& image,
+                     const Criteria& criteria, double isovalue) {
+  std::streambuf* const out = std::cout.rdbuf(std::cerr.rdbuf());
+  try {
+    initialize_triangulation_from_gray_image(c3t3, domain, image, criteria, isovalue, float(0));
+  } catch (...) {
+    std::cout.rdbuf(out);
+    throw;
+  }
+  std::cout.rdbuf(out);
+}
+
+double run_mesh_3_image(const Options& o, const CGAL::Image_3& image, Mesh& mesh,
+                        CGAL::Random& rng) {
+  using Mesh_domain = CGAL::Labeled_mesh_domain_3<K>;
+  using Tr = CGAL::Mesh_triangulation_3<Mesh_domain, CGAL::Default, CGAL::Sequential_tag>::type;
+  using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr>;
+  using Mesh_criteria = CGAL::Mesh_criteria_3<Tr>;
+  namespace params = CGAL::parameters;
+
+  // Trilinear interpolation of the samples (CGAL's only one for gray
+  // images).  Points outside the samples' box get value_outside, below any
+  // isovalue: the box closes the surface, as rdmesh's border="closed".  The
+  // error bound is relative to half the diagonal of the domain's box (the
+  // samples' box grown by 1 in every direction).
+  Mesh_domain domain = Mesh_domain::create_gray_image_mesh_domain(
+      image, params::iso_value = o.isovalue,
+      params::value_outside = std::numeric_limits<double>::lowest(),
+      params::image_values_to_subdomain_indices = Counted_threshold{o.isovalue},
+      params::relative_error_bound = o.error_bound, params::p_rng = &rng);
+
+  // As "mesh_3": facet criteria only, so only the isosurface is refined.
+  Mesh_criteria criteria(params::facet_angle = o.angle, params::facet_size = o.radius,
+                         params::facet_distance = o.distance,
+                         params::facet_topology = CGAL::FACET_VERTICES_ON_SAME_SURFACE_PATCH);
+
+  g_evaluations = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  C3t3 c3t3;
+  if (o.init == "components") {
+    seed_components(c3t3, domain, image, criteria, o.isovalue);
+    CGAL::refine_mesh_3(c3t3, domain, criteria, params::no_perturb(), params::no_exude(),
+                        params::manifold());
+  } else {
+    c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria, params::no_perturb(), params::no_exude(),
+                                   params::manifold());
+  }
+  const auto t1 = std::chrono::steady_clock::now();
+
+  CGAL::facets_in_complex_3_to_triangle_mesh(c3t3, mesh);
+  return std::chrono::duration<double>(t1 - t0).count();
+}
+
+// From image coordinates to world coordinates (see read_volume).
+void shift_mesh(Mesh& mesh, const std::array<double, 3>& origin) {
+  for (const auto v : mesh.vertices()) {
+    const Point_3& p = mesh.point(v);
+    mesh.point(v) = Point_3(p.x() + origin[0], p.y() + origin[1], p.z() + origin[2]);
+  }
+}
+
 // Shortest text that reads back as the same double.
 std::string json_double(double v) {
   if (!std::isfinite(v)) return "null";
   char buf[64];
   const auto res = std::to_chars(buf, buf + sizeof buf, v);
   return std::string(buf, res.ptr);
+}
+
+template <typename T>
+std::string json_triple(const std::array<T, 3>& a) {
+  return "[" + json_double(double(a[0])) + ", " + json_double(double(a[1])) + ", " +
+         json_double(double(a[2])) + "]";
+}
+
+// The JSON fields (each after ", ") that describe a named surface's run ...
+std::string surface_fields(const Surface_entry& s) {
+  return ", \"bounding_sphere\": [" + json_double(s.centre[0]) + ", " + json_double(s.centre[1]) +
+         ", " + json_double(s.centre[2]) + ", " + json_double(s.radius) + "]";
+}
+
+// ... and an image's.
+std::string image_fields(const Options& o) {
+  return ", \"dims\": " + json_triple(o.dims) + ", \"spacing\": " + json_triple(o.spacing) +
+         ", \"origin\": " + json_triple(o.origin) + ", \"isovalue\": " + json_double(o.isovalue) +
+         ", \"init\": \"" + o.init + "\"";
 }
 
 }  // namespace
@@ -572,24 +843,32 @@ int main(int argc, char** argv) {
   }
 
   try {
-    const Surface_entry& s = surfaces().at(o.surface);
-    const std::string bad = s.clipped ? std::string() : check_bounding_sphere(s);
-    if (!bad.empty()) {
-      std::cerr << "cgal_reference: bounding sphere of '" << o.surface << "' unusable: " << bad
-                << "\n";
-      return 1;
-    }
-
     // Fixed seed: Surface_mesher draws its initial points from CGAL's default
     // random generator (time-seeded otherwise), Mesh_3 from the domain's.
     CGAL::get_default_random() = CGAL::Random(o.seed);
     CGAL::Random mesh_3_rng(o.seed);
 
     Mesh mesh;
-    const bool sm = o.mesher == "surface_mesher" || o.mesher == "surface_mesher_boundary";
-    const double seconds =
-        sm ? run_surface_mesher(o, s, mesh, o.mesher == "surface_mesher_boundary")
-           : run_mesh_3(o, s, mesh, mesh_3_rng, o.mesher == "mesh_3");
+    double seconds = 0.0;
+    std::string input;  // the JSON fields that describe what was meshed
+    if (o.mesher == "mesh_3_image") {
+      const CGAL::Image_3 image = read_volume(o);
+      seconds = run_mesh_3_image(o, image, mesh, mesh_3_rng);
+      shift_mesh(mesh, o.origin);
+      input = image_fields(o);
+    } else {
+      const Surface_entry& s = surfaces().at(o.surface);
+      const std::string bad = s.clipped ? std::string() : check_bounding_sphere(s);
+      if (!bad.empty()) {
+        std::cerr << "cgal_reference: bounding sphere of '" << o.surface << "' unusable: " << bad
+                  << "\n";
+        return 1;
+      }
+      const bool sm = o.mesher == "surface_mesher" || o.mesher == "surface_mesher_boundary";
+      seconds = sm ? run_surface_mesher(o, s, mesh, o.mesher == "surface_mesher_boundary")
+                   : run_mesh_3(o, s, mesh, mesh_3_rng, o.mesher == "mesh_3");
+      input = surface_fields(s);
+    }
     const std::uint64_t evaluations = g_evaluations;
 
     // Sanity information on the output surface (not timed).
@@ -616,15 +895,12 @@ int main(int argc, char** argv) {
     }
 
     std::cout << "{\"mesher\": \"" << o.mesher << "\""
-              << ", \"surface\": \"" << o.surface << "\""
+              << ", \"surface\": " << (o.surface.empty() ? "null" : "\"" + o.surface + "\"")
               << ", \"seconds\": " << json_double(seconds)
               << ", \"vertices\": " << mesh.number_of_vertices()
               << ", \"faces\": " << mesh.number_of_faces()
               << ", \"evaluations\": " << evaluations
-              << ", \"cgal_version\": \"" << CGAL_VERSION_STR << "\""
-              << ", \"bounding_sphere\": [" << json_double(s.centre[0]) << ", "
-              << json_double(s.centre[1]) << ", " << json_double(s.centre[2]) << ", "
-              << json_double(s.radius) << "]"
+              << ", \"cgal_version\": \"" << CGAL_VERSION_STR << "\"" << input
               << ", \"angle\": " << json_double(o.angle)
               << ", \"radius\": " << json_double(o.radius)
               << ", \"distance\": " << json_double(o.distance)
@@ -634,6 +910,9 @@ int main(int argc, char** argv) {
               << ", \"components\": " << components
               << ", \"euler_characteristic\": " << euler << "}" << std::endl;
     return 0;
+  } catch (const Input_error& e) {
+    std::cerr << "cgal_reference: " << e.message << "\n";
+    return 1;
   } catch (const std::exception& e) {
     std::cerr << "cgal_reference: meshing failed: " << e.what() << "\n";
     return 1;

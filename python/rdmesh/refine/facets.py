@@ -106,7 +106,11 @@ def evaluate_facets(
     """
     k = len(seg)
     out = FacetEval(
-        np.zeros(k, np.int64), np.zeros((k, 3)), np.zeros(k), np.zeros(k, bool), np.zeros(k, bool),
+        np.zeros(k, np.int64),
+        np.zeros((k, 3)),
+        np.zeros(k),
+        np.zeros(k, bool),
+        np.zeros(k, bool),
         clean=np.ones(k, bool),
     )
     if k == 0:
