@@ -324,3 +324,29 @@ def test_expression_sphere_matches_the_exact_sphere():
     # The area of a fine enough mesh approaches 4 pi r^2 from below.
     area = mesh.to_trimesh().area
     assert 0.97 * 4 * math.pi * 0.81 < area < 4 * math.pi * 0.81
+
+
+@pytest.mark.parametrize("n", [*range(-17, 0), *range(1, 18)])
+def test_integer_powers_match_numpy_pow(n):
+    # Small integer exponents are multiplied out; the result must stay within a
+    # few ulps of pow (relative) or of the smallest normal (absolute).
+    rng = np.random.default_rng(abs(n))
+    x = np.concatenate(
+        [rng.uniform(-3, 3, 2000), 10.0 ** rng.uniform(-80, 80, 500), [0.0, -0.0, 1.0, -1.0]]
+    )
+    e = parse_expression(f"x**({n})")
+    zero = np.zeros_like(x)
+    with np.errstate(all="ignore"):
+        want = np.power(x, float(n))
+        got = e(np.column_stack([x, zero, zero]))
+        dwant = n * np.power(x, float(n - 1))
+        # The exact derivative (gradient() replaces infinite ones by differences).
+        dgot = e._root.dual((x, zero, zero))[1][0]
+    for a, b in ((got, want), (dgot, dwant)):
+        fin = np.isfinite(b)
+        assert np.array_equal(np.isfinite(a), fin)
+        assert np.array_equal(np.signbit(a[fin & (b != 0)]), np.signbit(b[fin & (b != 0)]))
+        err = np.abs(a[fin] - b[fin])
+        assert (err <= 2.0**-49 * np.abs(b[fin]) + np.finfo(float).tiny).all()
+        inf = ~fin & ~np.isnan(b)
+        assert np.array_equal(a[inf], b[inf])

@@ -268,14 +268,37 @@ class _Product(_Node):
         return out, grad
 
 
+#: Positive integer exponents up to this size are computed by multiplications:
+#: numpy's pow costs about ten times as much (45 against 5 ns a point for x**4).
+#: The result is within a few ulps of pow's (the interval rules widen pow by
+#: 8 to 16 ulps, so their enclosures still hold it).
+_MULTIPLY_UP_TO = 16
+
+
+def _power(a, b):
+    """a**b, by repeated squaring when b is a small positive integer constant
+    (negative ones stay with pow: 1 / x**n loses precision where x**n is subnormal)."""
+    if np.ndim(b) == 0 and math.isfinite(b) and b == math.floor(b) and 0 < b <= _MULTIPLY_UP_TO:
+        n = int(b)
+        out, base = None, a
+        while n:
+            if n & 1:
+                out = base if out is None else out * base
+            n >>= 1
+            if n:
+                base = base * base
+        return out
+    return a**b
+
+
 def _pow_dual(a, ga, b, gb):
-    out = a**b
+    out = _power(a, b)
     grad = None
     if ga is not None:
         if gb is None and np.ndim(b) == 0 and b == 0:
             pass  # u**0 is constant
         else:
-            grad = ga * (b * a ** (b - 1.0))
+            grad = ga * (b * _power(a, b - 1.0))
     if gb is not None:
         grad = _gadd(grad, gb * (out * np.log(a)))
     return out, grad
@@ -287,7 +310,7 @@ class _Pow(_Node):
     b: _Node
 
     def value(self, xyz):
-        return self.a.value(xyz) ** self.b.value(xyz)
+        return _power(self.a.value(xyz), self.b.value(xyz))
 
     def dual(self, xyz):
         a, ga = self.a.dual(xyz)
@@ -321,7 +344,7 @@ class _Nary(_Node):
         if self.name == "atan2":
             return np.arctan2(vals[0], vals[1])
         if self.name == "pow":
-            return vals[0] ** vals[1]
+            return _power(vals[0], vals[1])
         op = {"min": np.minimum, "max": np.maximum, "hypot": np.hypot}[self.name]
         out = vals[0]
         for v in vals[1:]:
