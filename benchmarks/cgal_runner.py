@@ -263,21 +263,24 @@ def reference_command(
         )
     if surface in CLIPPED_SURFACES and mesher != "surface_mesher_boundary":
         raise ValueError(f"{surface!r} leaves its sphere: only surface_mesher_boundary meshes it")
-    cmd = [
-        str(exe),
-        "--mesher", mesher,
-        "--surface", surface,
+    cmd = [str(exe), "--mesher", mesher, "--surface", surface]
+    return cmd + _criteria_args(angle, radius, distance, error_bound, seed, out)
+
+
+def _criteria_args(angle, radius, distance, error_bound, seed, out) -> list[str]:
+    """The options every meshing mode of the program takes."""
+    args = [
         "--angle", _number("angle", angle),
         "--radius", _number("radius", radius),
         "--distance", _number("distance", distance),
     ]  # fmt: skip
     if error_bound is not None:
-        cmd += ["--error-bound", _number("error_bound", error_bound)]
+        args += ["--error-bound", _number("error_bound", error_bound)]
     if seed is not None:
-        cmd += ["--seed", str(int(seed))]
+        args += ["--seed", str(int(seed))]
     if out is not None:
-        cmd += ["--out", str(out)]
-    return cmd
+        args += ["--out", str(out)]
+    return args
 
 
 def write_points(path: PathLike, points: Any) -> None:
@@ -348,17 +351,8 @@ def image_command(
         "--origin", _triple("origin", origin),
         "--isovalue", _number("isovalue", isovalue),
         "--init", init,
-        "--angle", _number("angle", angle),
-        "--radius", _number("radius", radius),
-        "--distance", _number("distance", distance),
     ]  # fmt: skip
-    if error_bound is not None:
-        cmd += ["--error-bound", _number("error_bound", error_bound)]
-    if seed is not None:
-        cmd += ["--seed", str(int(seed))]
-    if out is not None:
-        cmd += ["--out", str(out)]
-    return cmd
+    return cmd + _criteria_args(angle, radius, distance, error_bound, seed, out)
 
 
 def parse_reference_output(

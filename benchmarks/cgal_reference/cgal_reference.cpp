@@ -563,6 +563,16 @@ double run_surface_mesher(const Options& o, const Surface_entry& s, Mesh& mesh, 
   return std::chrono::duration<double>(t1 - t0).count();
 }
 
+// Mesh_3's facet criteria from the options (the Mesh_3 modes' only criteria:
+// no cell criterion is given, so only the surface is refined).
+template <typename Criteria>
+Criteria facet_criteria(const Options& o) {
+  namespace params = CGAL::parameters;
+  return Criteria(params::facet_angle = o.angle, params::facet_size = o.radius,
+                  params::facet_distance = o.distance,
+                  params::facet_topology = CGAL::FACET_VERTICES_ON_SAME_SURFACE_PATCH);
+}
+
 double run_mesh_3(const Options& o, const Surface_entry& s, Mesh& mesh, CGAL::Random& rng,
                   bool manifold) {
   using Mesh_domain = CGAL::Labeled_mesh_domain_3<K>;
@@ -581,9 +591,7 @@ double run_mesh_3(const Options& o, const Surface_entry& s, Mesh& mesh, CGAL::Ra
   // Facet criteria only: no cell criterion is given (cell_size and
   // cell_radius_edge_ratio default to 0 = ignored), so only the boundary
   // surface is refined.
-  Mesh_criteria criteria(params::facet_angle = o.angle, params::facet_size = o.radius,
-                         params::facet_distance = o.distance,
-                         params::facet_topology = CGAL::FACET_VERTICES_ON_SAME_SURFACE_PATCH);
+  const auto criteria = facet_criteria<Mesh_criteria>(o);
 
   g_evaluations = 0;
   const auto t0 = std::chrono::steady_clock::now();
@@ -738,9 +746,7 @@ double run_mesh_3_image(const Options& o, const CGAL::Image_3& image, Mesh& mesh
       params::relative_error_bound = o.error_bound, params::p_rng = &rng);
 
   // As "mesh_3": facet criteria only, so only the isosurface is refined.
-  Mesh_criteria criteria(params::facet_angle = o.angle, params::facet_size = o.radius,
-                         params::facet_distance = o.distance,
-                         params::facet_topology = CGAL::FACET_VERTICES_ON_SAME_SURFACE_PATCH);
+  const auto criteria = facet_criteria<Mesh_criteria>(o);
 
   g_evaluations = 0;
   const auto t0 = std::chrono::steady_clock::now();
