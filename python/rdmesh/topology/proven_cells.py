@@ -223,9 +223,9 @@ def _prove(
 ) -> Violations:
     """Subdivide the boxes until each is irrelevant or settled; the rest are violations.
 
-    ``cheap`` (optional) and ``matters`` say which boxes can matter; ``cheap``
-    is applied before the interval evaluation, ``matters`` (costlier) only to
-    the boxes that are neither empty nor settled.
+    ``cheap`` (optional) and ``matters`` say which boxes can matter; both are
+    applied before the interval evaluation (``matters``, the cell pruning, runs
+    in the core), so only boxes that can matter are bounded.
     """
     expr = surface.f
     if not isinstance(expr, Expression):
@@ -242,14 +242,14 @@ def _prove(
         if cheap is not None:
             keep &= cheap(lo, hi, owner)
         lo, hi, owner = lo[keep], hi[keep], owner[keep]
+        keep = matters(lo, hi, owner)
+        lo, hi, owner = lo[keep], hi[keep], owner[keep]
         if not len(lo):
             break
         enc = expr.interval_gradient(lo, hi, mean_value=True)
         open_ = (enc.lo <= 0) & (enc.hi >= 0)
         open_ &= enc.undefined | ~settled(enc.glo, enc.ghi, owner)
         lo, hi, owner = lo[open_], hi[open_], owner[open_]
-        keep = matters(lo, hi, owner)
-        lo, hi, owner = lo[keep], hi[keep], owner[keep]
         side = hi - lo
         small = side.max(axis=1) <= floor[owner]
         if small.any() or 2 * len(lo) > MAX_BOXES:
