@@ -8,6 +8,8 @@ nothing, and its errors.
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -159,3 +161,28 @@ def test_cell_pruning_rejects_bad_ids(change, match):
     with pytest.raises(ValueError, match=match):
         boxes_outside_cells(lo, lo + 0.1, args["owner"], points, args["offsets"], neighbour,
                             args["skip"])  # fmt: skip
+
+
+@pytest.mark.parametrize("n", range(3, 18))
+def test_integer_powers_hold_the_exact_power(n, evaluator_both):
+    # The core multiplies small powers out (the numpy rules call pow): on point
+    # boxes both must hold the exact rational power, over many magnitudes.
+    rng = np.random.default_rng(n)
+    x = rng.choice([-1.0, 1.0], 300) * 10.0 ** rng.uniform(-40, 40, 300)
+    x = np.concatenate([x, rng.uniform(-3, 3, 100), [0.0, -0.0, 1.0, -1.0, 2.0**-537]])
+    p = np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
+    r = intervals.interval_gradient(parse_expression(f"x**{n}"), p, p)
+    for xi, lo, hi, glo, ghi in zip(x, r.lo, r.hi, r.glo[:, 0], r.ghi[:, 0], strict=True):
+        assert _holds(lo, hi, Fraction(float(xi)) ** n)
+        assert _holds(glo, ghi, n * Fraction(float(xi)) ** (n - 1))
+
+
+def _holds(lo: float, hi: float, exact: Fraction) -> bool:
+    """lo <= exact <= hi, in exact arithmetic (infinite bounds hold everything beyond)."""
+    return (lo == -np.inf or Fraction(lo) <= exact) and (hi == np.inf or exact <= Fraction(hi))
+
+
+@pytest.fixture(params=["core", "numpy"])
+def evaluator_both(request, monkeypatch):
+    monkeypatch.setattr(intervals, "NATIVE", request.param == "core")
+    return request.param
