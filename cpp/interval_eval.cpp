@@ -3,10 +3,10 @@
 #include "interval_eval.hpp"
 
 #include <algorithm>
-#include <functional>
 #include <cfloat>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -30,8 +30,7 @@ struct I {
 // A float below x, one to two ulps (NaN gives -inf, +inf the largest float),
 // and above.  In round-to-nearest, fl(x - fl(fl(2**-52 |x|) + 2**-1074)) is at
 // most the float below x, as 2**-52 |x| is at least one ulp of x and 2**-1074
-// the subnormal spacing (intervals._dn); no branch and no libm call, which
-// nextafter costs about ten times as much.
+// the subnormal spacing (intervals._dn).  No libm call (nextafter is one).
 constexpr double kUlpRel = 2.220446049250313e-16;  // 2**-52
 constexpr double kEta = 4.9406564584124654e-324;   // 2**-1074
 // Comparisons rather than fmin/fmax: those are libm calls under CGAL's
@@ -179,7 +178,7 @@ inline double mag(I a) { return std::max(std::fabs(a.lo), std::fabs(a.hi)); }
 // so within (1 + 2**-53)**8 - 1 < 2**-49 (kRel) of the true power where no
 // product leaves the normal range; where one underflows, so does x**n (each
 // factor is at most |x|**n when |x| < 1), and the absolute widening by the
-// smallest normal covers it.  pow() costs about ten times as much.
+// smallest normal covers it.  pow() costs several times as much.
 inline double ipow(double x, unsigned n) {
   double out = 1.0, base = x;
   bool first = true;

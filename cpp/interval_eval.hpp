@@ -4,7 +4,7 @@
 // dual numbers.  It follows rdmesh.surfaces.intervals rule for rule (the same
 // domains, undefined flags, Clarke hulls at kinks and widening of libm
 // results, and the same outward rounding), so both give the same kind of
-// enclosure, the core about ten times faster.  Compiled with
+// enclosure, the core several times faster.  Compiled with
 // -ffp-contract=off: a fused multiply-add would change what was rounded.
 #pragma once
 
