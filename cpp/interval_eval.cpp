@@ -149,20 +149,16 @@ inline I div(I a, I b) {
   return mul(a, recip(b));
 }
 
+// The range of an even power over a, from the powers of its ends (unrounded).
+inline I even_range(I a, double lo_n, double hi_n) {
+  if (a.lo >= 0) return {lo_n, hi_n};
+  if (a.hi <= 0) return {hi_n, lo_n};
+  return {0.0, std::max(lo_n, hi_n)};
+}
+
 inline I sqr(I a) {
-  const double l2 = a.lo * a.lo, h2 = a.hi * a.hi;
-  double lo, hi;
-  if (a.lo >= 0) {
-    lo = l2;
-    hi = h2;
-  } else if (a.hi <= 0) {
-    lo = h2;
-    hi = l2;
-  } else {
-    lo = 0.0;
-    hi = std::max(l2, h2);
-  }
-  return {std::max(dn(lo), 0.0), up(hi)};
+  const I r = even_range(a, a.lo * a.lo, a.hi * a.hi);
+  return {std::max(dn(r.lo), 0.0), up(r.hi)};
 }
 
 inline I keep_sign(I r, I a) {
@@ -201,18 +197,8 @@ I pow_int(I a, double n) {
   const double lo_n = small ? ipow(a.lo, static_cast<unsigned>(n)) : std::pow(a.lo, n);
   const double hi_n = small ? ipow(a.hi, static_cast<unsigned>(n)) : std::pow(a.hi, n);
   if (std::fmod(n, 2.0) == 1.0) return keep_sign({dn_t(lo_n), up_t(hi_n)}, a);
-  double lo, hi;
-  if (a.lo >= 0) {
-    lo = lo_n;
-    hi = hi_n;
-  } else if (a.hi <= 0) {
-    lo = hi_n;
-    hi = lo_n;
-  } else {
-    lo = 0.0;
-    hi = std::max(lo_n, hi_n);
-  }
-  return {std::max(dn_t(lo), 0.0), up_t(hi)};
+  const I r = even_range(a, lo_n, hi_n);
+  return {std::max(dn_t(r.lo), 0.0), up_t(r.hi)};
 }
 
 // Clips a to [lower, inf) (open or closed): undefined where a leaves it,
