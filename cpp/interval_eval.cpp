@@ -270,7 +270,7 @@ class Machine {
           grad_[i] = 0;
           break;
         case IV_VAR:
-          grad_[i] = 1;
+          grad_[i] = static_cast<std::uint8_t>(1u << p.a);
           break;
         case IV_ADD:
         case IV_SUB:
@@ -278,19 +278,24 @@ class Machine {
         case IV_DIV:
         case IV_MIN:
         case IV_MAX:
-          grad_[i] = grad_[p.a] || grad_[p.b];
+          grad_[i] = grad_[p.a] | grad_[p.b];
           break;
         case IV_POWC:
-          grad_[i] = grad_[p.a] && p.c != 0;
+          // A non-finite exponent makes every component unbounded.
+          grad_[i] = p.c == 0 ? 0 : (!std::isfinite(p.c) && grad_[p.a] ? 7 : grad_[p.a]);
           break;
         default:
           grad_[i] = grad_[p.a];
       }
-      grad_[i] = grad_[i] && gradient;
+      if (!gradient) grad_[i] = 0;
     }
   }
 
   bool has_gradient() const { return !grad_.empty() && grad_.back(); }
+  // Component k of register r's gradient, exactly 0 where its mask says so.
+  I gradient(std::size_t r, int k) const {
+    return has(r, k) ? regs_[r].g[k] : point(0.0);
+  }
 
   const Dual& run(const double* lo, const double* hi, bool& undefined) {
     undefined = false;
@@ -299,10 +304,15 @@ class Machine {
   }
 
  private:
+  // Whether component k of register r's gradient can be nonzero: a mask per
+  // register, so that x**2 computes one component, not three (the others
+  // would be exact zeros).
+  bool has(std::size_t r, int k) const { return (grad_[r] >> k) & 1u; }
+
   void step(std::size_t i, const double* lo, const double* hi, bool& undef) {
     const IntervalInstruction& p = prog_[i];
     Dual& r = regs_[i];
-    const bool g = grad_[i];
+    const bool g = grad_[i] != 0;
     switch (p.op) {
       case IV_CONST:
         if (!std::isfinite(p.c)) {  // e.g. 1e999: not a real number
@@ -320,7 +330,8 @@ class Machine {
         const Dual& a = regs_[p.a];
         r.v = neg(a.v);
         if (g)
-          for (int k = 0; k < 3; ++k) r.g[k] = neg(a.g[k]);
+          for (int k = 0; k < 3; ++k)
+            if (has(i, k)) r.g[k] = neg(gradient(p.a, k));
         return;
       }
       case IV_ADD:
@@ -330,8 +341,8 @@ class Machine {
         r.v = minus ? sub(a.v, b.v) : add(a.v, b.v);
         if (g)
           for (int k = 0; k < 3; ++k) {
-            const I ga = grad_[p.a] ? a.g[k] : point(0.0);
-            const I gb = grad_[p.b] ? b.g[k] : point(0.0);
+            if (!has(i, k)) continue;
+            const I ga = gradient(p.a, k), gb = gradient(p.b, k);
             r.g[k] = minus ? sub(ga, gb) : add(ga, gb);
           }
         return;
@@ -341,11 +352,12 @@ class Machine {
         if (g)
           for (int k = 0; k < 3; ++k) {
             // d(uv) = du v + dv u, in the order of the tree walk.
-            if (grad_[p.a] && grad_[p.b])
+            const bool ha = has(p.a, k), hb = has(p.b, k);
+            if (ha && hb)
               r.g[k] = add(mul(a.g[k], b.v), mul(b.g[k], a.v));
-            else if (grad_[p.a])
+            else if (ha)
               r.g[k] = mul(a.g[k], b.v);
-            else
+            else if (hb)
               r.g[k] = mul(b.g[k], a.v);
           }
         r.v = mul(a.v, b.v);
@@ -359,10 +371,11 @@ class Machine {
           // d(u/v) = (du - (u/v) dv) * (1/v), as the point dual computes it.
           const I rb = recip(b.v);
           for (int k = 0; k < 3; ++k) {
+            if (!has(i, k)) continue;
             I t;
-            if (grad_[p.b]) {
+            if (has(p.b, k)) {
               const I dv = mul(b.g[k], q);
-              t = grad_[p.a] ? sub(a.g[k], dv) : neg(dv);
+              t = has(p.a, k) ? sub(a.g[k], dv) : neg(dv);
             } else {
               t = a.g[k];
             }
@@ -379,11 +392,12 @@ class Machine {
         undef = undef || u;
         if (g) {
           if (!std::isfinite(p.c)) {
-            for (int k = 0; k < 3; ++k) r.g[k] = full();
+            for (int k = 0; k < 3; ++k) r.g[k] = full();  // the mask is all three
           } else {
             bool ignored = false;
             const I d = mul(point(p.c), pow_const(a.v, p.c - 1.0, ignored));
-            for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], d);
+            for (int k = 0; k < 3; ++k)
+            if (has(i, k)) r.g[k] = mul(a.g[k], d);
           }
         }
         return;
@@ -398,7 +412,8 @@ class Machine {
         if (empty) {
           r.v = full();
           if (g)
-            for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], full());
+            for (int k = 0; k < 3; ++k)
+            if (has(i, k)) r.g[k] = mul(a.g[k], full());
           return;
         }
         I d;
@@ -411,14 +426,16 @@ class Machine {
           d = mul(point(0.5), recip(r.v));
         }
         if (g)
-          for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], d);
+          for (int k = 0; k < 3; ++k)
+            if (has(i, k)) r.g[k] = mul(a.g[k], d);
         return;
       }
       case IV_EXP: {
         const Dual& a = regs_[p.a];
         r.v = {std::max(dn_t(std::exp(a.v.lo)), 0.0), up_t(std::exp(a.v.hi))};
         if (g)
-          for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], r.v);
+          for (int k = 0; k < 3; ++k)
+            if (has(i, k)) r.g[k] = mul(a.g[k], r.v);
         return;
       }
       case IV_ABS: {
@@ -426,7 +443,8 @@ class Machine {
         // sign(u), and the hull [-1, 1] of both branches where 0 is in a.
         const I d = {a.v.lo > 0 ? 1.0 : -1.0, a.v.hi < 0 ? -1.0 : 1.0};
         if (g)
-          for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], d);
+          for (int k = 0; k < 3; ++k)
+            if (has(i, k)) r.g[k] = mul(a.g[k], d);
         r.v = {mig(a.v), mag(a.v)};
         return;
       }
@@ -445,8 +463,8 @@ class Machine {
         }
         if (g)
           for (int k = 0; k < 3; ++k) {
-            const I ga = grad_[p.a] ? a.g[k] : point(0.0);
-            const I gb = grad_[p.b] ? b.g[k] : point(0.0);
+            if (!has(i, k)) continue;
+            const I ga = gradient(p.a, k), gb = gradient(p.b, k);
             // Where both branches can be taken, the hull of both gradients.
             r.g[k] = only_a ? ga
                      : only_b ? gb
@@ -461,7 +479,8 @@ class Machine {
         r.v = wave(is_sin, a.v);
         if (g) {
           const I d = is_sin ? wave(false, a.v) : neg(wave(true, a.v));
-          for (int k = 0; k < 3; ++k) r.g[k] = mul(a.g[k], d);
+          for (int k = 0; k < 3; ++k)
+            if (has(i, k)) r.g[k] = mul(a.g[k], d);
         }
         return;
       }
@@ -515,7 +534,7 @@ void evaluate_range(const std::vector<IntervalInstruction>& program, const doubl
     double flo = d.v.lo, fhi = d.v.hi;
     I G[3] = {point(0.0), point(0.0), point(0.0)};
     if (with_grad)
-      for (int k = 0; k < 3; ++k) G[k] = d.g[k];
+      for (int k = 0; k < 3; ++k) G[k] = box.gradient(program.size() - 1, k);
     if (gradient)
       for (int k = 0; k < 3; ++k) {
         out.glo[3 * i + k] = G[k].lo;
