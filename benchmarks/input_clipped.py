@@ -85,21 +85,11 @@ def _reference(case: str, n: int) -> np.ndarray:
 class CgalClipped(Cgal):
     """CGAL's Surface_mesher with Manifold_with_boundary_tag on a clipped case."""
 
-    def command(self, case: dict, args, mesh_path: str | None) -> list[str]:
-        from cgal_runner import reference_command
+    def reference_mode(self) -> str:
+        return "surface_mesher_boundary"
 
-        p = case["params"]
-        return reference_command(
-            self.exe,
-            "surface_mesher_boundary",
-            CASES[case["surface"]].cgal,
-            args.angle,
-            p["radius"],
-            p["distance"],
-            args.cgal_error_bound,
-            seed=args.seed,
-            out=mesh_path,
-        )
+    def reference_surface(self, case: dict) -> str:
+        return CASES[case["surface"]].cgal
 
 
 class ClippedInput(InputKind):

@@ -369,14 +369,22 @@ class Cgal(Mesher):
         super().__init__(name)
         self.exe = exe
 
+    def reference_mode(self) -> str:
+        """The reference program's ``--mesher``."""
+        return CGAL_MESHERS[self.name]
+
+    def reference_surface(self, case: dict) -> str:
+        """The reference program's ``--surface`` for ``case``."""
+        return case["surface"]
+
     def command(self, case: dict, args: argparse.Namespace, mesh_path: str | None) -> list[str]:
         from cgal_runner import reference_command
 
         p = case["params"]
         return reference_command(
             self.exe,
-            CGAL_MESHERS[self.name],
-            case["surface"],
+            self.reference_mode(),
+            self.reference_surface(case),
             args.angle,
             p["radius"],
             p["distance"],
