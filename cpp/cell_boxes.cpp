@@ -4,35 +4,36 @@
 
 namespace rdmesh {
 
+bool box_outside_cell(const double* L, const double* H, std::int64_t p, std::int64_t skip,
+                      const double* points, const std::int64_t* offsets,
+                      const std::int64_t* neighbour) {
+  const double* P = points + 3 * p;
+  const double pn = std::sqrt(P[0] * P[0] + P[1] * P[1] + P[2] * P[2]);
+  for (std::int64_t j = offsets[p]; j < offsets[p + 1]; ++j) {
+    const std::int64_t q = neighbour[j];
+    if (q == skip) continue;
+    const double* Q = points + 3 * q;
+    double a = 0.0, c = 0.0, ww = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double w = Q[k] - P[k];
+      a += (w > 0 ? L[k] : H[k]) * w;  // the least x . w over the box
+      c += 0.5 * (P[k] + Q[k]) * w;
+      ww += w * w;
+    }
+    if (a > c + 1e-12 * (std::fabs(c) + std::sqrt(ww) * pn)) return true;
+  }
+  return false;
+}
+
 std::vector<std::uint8_t> boxes_outside_cells(const double* lo, const double* hi,
                                               std::size_t n, const std::int64_t* owner,
                                               const std::int64_t* skip, const double* points,
                                               const std::int64_t* offsets,
                                               const std::int64_t* neighbour) {
   std::vector<std::uint8_t> out(n, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::int64_t p = owner[i];
-    const double* P = points + 3 * p;
-    const double* L = lo + 3 * i;
-    const double* H = hi + 3 * i;
-    const double pn = std::sqrt(P[0] * P[0] + P[1] * P[1] + P[2] * P[2]);
-    for (std::int64_t j = offsets[p]; j < offsets[p + 1]; ++j) {
-      const std::int64_t q = neighbour[j];
-      if (skip != nullptr && q == skip[i]) continue;
-      const double* Q = points + 3 * q;
-      double a = 0.0, c = 0.0, ww = 0.0;
-      for (int k = 0; k < 3; ++k) {
-        const double w = Q[k] - P[k];
-        a += (w > 0 ? L[k] : H[k]) * w;  // the least x . w over the box
-        c += 0.5 * (P[k] + Q[k]) * w;
-        ww += w * w;
-      }
-      if (a > c + 1e-12 * (std::fabs(c) + std::sqrt(ww) * pn)) {
-        out[i] = 1;
-        break;
-      }
-    }
-  }
+  for (std::size_t i = 0; i < n; ++i)
+    out[i] = box_outside_cell(lo + 3 * i, hi + 3 * i, owner[i], skip ? skip[i] : -1, points,
+                              offsets, neighbour);
   return out;
 }
 

@@ -10,6 +10,12 @@
 
 namespace rdmesh {
 
+// Whether the box [L, H] lies wholly beyond the bisector of sample p and one
+// of its neighbours other than skip (-1: none), as below.
+bool box_outside_cell(const double* L, const double* H, std::int64_t p, std::int64_t skip,
+                      const double* points, const std::int64_t* offsets,
+                      const std::int64_t* neighbour);
+
 // Box i is [lo_i, hi_i] (rows of 3), owned by sample owner[i]; the neighbours
 // of sample p are neighbour[offsets[p] : offsets[p + 1]].  Neighbour skip[i]
 // (when skip is not null) is not used for box i.  A box counts as outside only

@@ -517,51 +517,73 @@ void check_interval_program(const std::vector<IntervalInstruction>& program) {
   }
 }
 
+struct BoxEvaluator::Machines {
+  Machines(const std::vector<IntervalInstruction>& program, bool with_grad)
+      : size(program.size()), box(program, with_grad), centre(program, false) {}
+  std::size_t size;
+  Machine box, centre;
+};
+
+BoxEvaluator::BoxEvaluator(const std::vector<IntervalInstruction>& program, bool gradient,
+                           bool mean_value)
+    : m_(std::make_unique<Machines>(program, gradient || mean_value)),
+      gradient_(gradient),
+      mean_value_(mean_value) {}
+
+BoxEvaluator::~BoxEvaluator() = default;
+
+void BoxEvaluator::evaluate(const double* l, const double* h, BoxBounds& out) {
+  bool undef = false;
+  const Dual& d = m_->box.run(l, h, undef);
+  double flo = d.v.lo, fhi = d.v.hi;
+  I G[3] = {point(0.0), point(0.0), point(0.0)};
+  if (m_->box.has_gradient())
+    for (int k = 0; k < 3; ++k) G[k] = m_->box.gradient(m_->size - 1, k);
+  for (int k = 0; k < 3; ++k) {
+    out.glo[k] = gradient_ ? G[k].lo : 0.0;
+    out.ghi[k] = gradient_ ? G[k].hi : 0.0;
+  }
+  if (mean_value_ && !undef) {
+    bool ok = true;
+    for (int k = 0; k < 3; ++k)
+      ok = ok && std::isfinite(l[k]) && std::isfinite(h[k]) && std::isfinite(G[k].lo) &&
+           std::isfinite(G[k].hi);
+    if (ok) {
+      double m[3];
+      for (int k = 0; k < 3; ++k) m[k] = std::clamp(0.5 * l[k] + 0.5 * h[k], l[k], h[k]);
+      bool mundef = false;
+      const Dual& c = m_->centre.run(m, m, mundef);
+      if (!mundef) {
+        I total = c.v;
+        for (int k = 0; k < 3; ++k) total = add(total, mul(G[k], sub({l[k], h[k]}, point(m[k]))));
+        flo = std::max(flo, total.lo);
+        fhi = std::min(fhi, total.hi);
+      }
+    }
+  }
+  out.lo = flo;
+  out.hi = fhi;
+  out.undefined = undef;
+}
+
 namespace {
 
-// Boxes [begin, end) of evaluate_intervals, with machines of their own.
+// Boxes [begin, end) of evaluate_intervals, with an evaluator of their own.
 void evaluate_range(const std::vector<IntervalInstruction>& program, const double* lo,
                     const double* hi, std::size_t begin, std::size_t end, bool gradient,
                     bool mean_value, IntervalResult& out) {
-  Machine box(program, gradient || mean_value);
-  Machine centre(program, false);
-  const bool with_grad = box.has_gradient();
+  BoxEvaluator box(program, gradient, mean_value);
+  BoxBounds b;
   for (std::size_t i = begin; i < end; ++i) {
-    const double* l = lo + 3 * i;
-    const double* h = hi + 3 * i;
-    bool undef = false;
-    const Dual& d = box.run(l, h, undef);
-    double flo = d.v.lo, fhi = d.v.hi;
-    I G[3] = {point(0.0), point(0.0), point(0.0)};
-    if (with_grad)
-      for (int k = 0; k < 3; ++k) G[k] = box.gradient(program.size() - 1, k);
+    box.evaluate(lo + 3 * i, hi + 3 * i, b);
     if (gradient)
       for (int k = 0; k < 3; ++k) {
-        out.glo[3 * i + k] = G[k].lo;
-        out.ghi[3 * i + k] = G[k].hi;
+        out.glo[3 * i + k] = b.glo[k];
+        out.ghi[3 * i + k] = b.ghi[k];
       }
-    if (mean_value && !undef) {
-      bool ok = true;
-      for (int k = 0; k < 3; ++k)
-        ok = ok && std::isfinite(l[k]) && std::isfinite(h[k]) && std::isfinite(G[k].lo) &&
-             std::isfinite(G[k].hi);
-      if (ok) {
-        double m[3];
-        for (int k = 0; k < 3; ++k) m[k] = std::clamp(0.5 * l[k] + 0.5 * h[k], l[k], h[k]);
-        bool mundef = false;
-        const Dual& c = centre.run(m, m, mundef);
-        if (!mundef) {
-          I total = c.v;
-          for (int k = 0; k < 3; ++k)
-            total = add(total, mul(G[k], sub({l[k], h[k]}, point(m[k]))));
-          flo = std::max(flo, total.lo);
-          fhi = std::min(fhi, total.hi);
-        }
-      }
-    }
-    out.lo[i] = flo;
-    out.hi[i] = fhi;
-    out.undefined[i] = undef;
+    out.lo[i] = b.lo;
+    out.hi[i] = b.hi;
+    out.undefined[i] = b.undefined;
   }
 }
 

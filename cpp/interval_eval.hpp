@@ -10,6 +10,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace rdmesh {
@@ -44,6 +45,29 @@ struct IntervalInstruction {
 struct IntervalResult {
   std::vector<double> lo, hi, glo, ghi;  // (n,), (n,), (n, 3), (n, 3)
   std::vector<std::uint8_t> undefined;   // (n,)
+};
+
+// Bounds of the value and of the gradient over one box.
+struct BoxBounds {
+  double lo, hi, glo[3], ghi[3];
+  bool undefined;
+};
+
+// Bounds one box at a time with machines of its own (one per thread): what
+// evaluate_intervals does for each box.  The program must have been checked.
+class BoxEvaluator {
+ public:
+  BoxEvaluator(const std::vector<IntervalInstruction>& program, bool gradient, bool mean_value);
+  ~BoxEvaluator();
+  BoxEvaluator(const BoxEvaluator&) = delete;
+  BoxEvaluator& operator=(const BoxEvaluator&) = delete;
+  // The box [lo, hi] (3 values each); glo/ghi are zero without gradient.
+  void evaluate(const double* lo, const double* hi, BoxBounds& out);
+
+ private:
+  struct Machines;
+  std::unique_ptr<Machines> m_;
+  bool gradient_, mean_value_;
 };
 
 // Checks the program (opcodes, argument registers earlier than their

@@ -20,6 +20,7 @@
 #include <malloc.h>
 #endif
 
+#include "box_proofs.hpp"
 #include "cell_boxes.hpp"
 #include "interval_eval.hpp"
 #include "mesh_distance.hpp"
@@ -72,6 +73,46 @@ py::array_t<T> to_numpy(std::vector<T>& v, std::vector<py::ssize_t> shape) {
                              [](void* p) { delete static_cast<std::vector<T>*>(p); });
   owner.release();
   return py::array_t<T>(std::move(shape), data, free_when_done);
+}
+
+using OpArray = py::array_t<std::int32_t, py::array::c_style | py::array::forcecast>;
+
+// The interval program (rdmesh.surfaces.interval_program): (t, 3) ops and (t,) constants.
+std::vector<rdmesh::IntervalInstruction> program_of(const OpArray& ops, const InArray& consts) {
+  if (ops.ndim() != 2 || ops.shape(1) != 3) throw std::invalid_argument("ops must have shape (t, 3)");
+  if (consts.ndim() != 1 || consts.shape(0) != ops.shape(0))
+    throw std::invalid_argument("consts must have shape (t,)");
+  std::vector<rdmesh::IntervalInstruction> program(ops.shape(0));
+  const std::int32_t* o = ops.data();
+  for (std::size_t i = 0; i < program.size(); ++i)
+    program[i] = {o[3 * i], o[3 * i + 1], o[3 * i + 2], consts.data()[i]};
+  return program;
+}
+
+// Each sample's Delaunay neighbours as CSR over n_points samples, checked.
+void check_neighbours(const std::vector<std::int64_t>& off, const std::vector<std::int64_t>& nb,
+                      std::size_t n_points) {
+  if (off.size() != n_points + 1)
+    throw std::invalid_argument("offsets must have shape (len(points) + 1,)");
+  if (off[0] != 0 || off[n_points] != static_cast<std::int64_t>(nb.size()))
+    throw std::invalid_argument("offsets must run from 0 to len(neighbour)");
+  for (std::size_t i = 0; i < n_points; ++i)
+    if (off[i + 1] < off[i]) throw std::invalid_argument("offsets must not decrease");
+  for (std::int64_t q : nb)
+    if (q < 0 || static_cast<std::size_t>(q) >= n_points)
+      throw std::invalid_argument("neighbour ids must be rows of points");
+}
+
+// (n,) ids, each a row of points.
+std::vector<std::int64_t> sample_ids(const IdArray& a, std::size_t n, std::size_t n_points,
+                                     const char* what) {
+  if (a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n)
+    throw std::invalid_argument(std::string(what) + " must have shape (n,), one per box");
+  std::vector<std::int64_t> v = copy_of<std::int64_t>(a);
+  for (std::int64_t p : v)
+    if (p < 0 || static_cast<std::size_t>(p) >= n_points)
+      throw std::invalid_argument(std::string(what) + " ids must be rows of points");
+  return v;
 }
 
 py::tuple facet_pair(rdmesh::ChangedFacets& f) {
@@ -239,27 +280,15 @@ PYBIND11_MODULE(_rdt, m) {
         const std::vector<double> P = rows3(points, "points");
         const std::size_t n = L.size() / 3, np_ = P.size() / 3;
         if (H.size() != L.size()) throw std::invalid_argument("lo and hi must have the same shape");
-        if (owner.ndim() != 1 || static_cast<std::size_t>(owner.shape(0)) != n)
-          throw std::invalid_argument("owner must have shape (n,), one per box");
         if (skip && (skip->ndim() != 1 || static_cast<std::size_t>(skip->shape(0)) != n))
           throw std::invalid_argument("skip must have shape (n,), one per box");
-        if (offsets.ndim() != 1 || static_cast<std::size_t>(offsets.shape(0)) != np_ + 1)
-          throw std::invalid_argument("offsets must have shape (len(points) + 1,)");
-        const std::vector<std::int64_t> O = copy_of<std::int64_t>(owner),
+        const std::vector<std::int64_t> O = sample_ids(owner, n, np_, "owner"),
                                         off = copy_of<std::int64_t>(offsets),
                                         nb = copy_of<std::int64_t>(neighbour);
         const std::vector<std::int64_t> S = skip ? copy_of<std::int64_t>(*skip)
                                                  : std::vector<std::int64_t>();
-        if (off[0] != 0 || off[np_] != static_cast<std::int64_t>(nb.size()))
-          throw std::invalid_argument("offsets must run from 0 to len(neighbour)");
-        for (std::size_t i = 0; i < np_; ++i)
-          if (off[i + 1] < off[i]) throw std::invalid_argument("offsets must not decrease");
-        for (std::int64_t q : nb)
-          if (q < 0 || static_cast<std::size_t>(q) >= np_)
-            throw std::invalid_argument("neighbour ids must be rows of points");
-        for (std::int64_t p : O)
-          if (p < 0 || static_cast<std::size_t>(p) >= np_)
-            throw std::invalid_argument("owner ids must be rows of points");
+        if (offsets.ndim() != 1) throw std::invalid_argument("offsets must be 1-D");
+        check_neighbours(off, nb, np_);
         std::vector<std::uint8_t> out;
         {
           py::gil_scoped_release release;
@@ -276,19 +305,11 @@ PYBIND11_MODULE(_rdt, m) {
 
   m.def(
       "evaluate_intervals",
-      [](const py::array_t<std::int32_t, py::array::c_style | py::array::forcecast>& ops,
-         const InArray& consts, const InArray& lo, const InArray& hi, bool gradient,
-         bool mean_value) {
-        if (ops.ndim() != 2 || ops.shape(1) != 3)
-          throw std::invalid_argument("ops must have shape (t, 3)");
-        if (consts.ndim() != 1 || consts.shape(0) != ops.shape(0))
-          throw std::invalid_argument("consts must have shape (t,)");
+      [](const OpArray& ops, const InArray& consts, const InArray& lo, const InArray& hi,
+         bool gradient, bool mean_value) {
+        const std::vector<rdmesh::IntervalInstruction> program = program_of(ops, consts);
         const std::vector<double> L = rows3(lo, "lo"), H = rows3(hi, "hi");
         if (L.size() != H.size()) throw std::invalid_argument("lo and hi must have the same shape");
-        std::vector<rdmesh::IntervalInstruction> program(ops.shape(0));
-        const std::int32_t* o = ops.data();
-        for (std::size_t i = 0; i < program.size(); ++i)
-          program[i] = {o[3 * i], o[3 * i + 1], o[3 * i + 2], consts.data()[i]};
         const std::size_t n = L.size() / 3;
         rdmesh::IntervalResult r;
         {
@@ -309,6 +330,76 @@ PYBIND11_MODULE(_rdt, m) {
       "Interval bounds of a compiled expression program (see "
       "rdmesh.surfaces.interval_program) over (n, 3) boxes: (lo, hi, glo, ghi, undefined); "
       "glo and ghi are None without gradient.");
+
+  m.def(
+      "prove_boxes",
+      [](const OpArray& ops, const InArray& consts, const InArray& lo, const InArray& hi,
+         const IdArray& cell, const InArray& direction, const InArray& floor,
+         const InArray& points, const IdArray& offsets, const IdArray& neighbour,
+         std::optional<IdArray> skip, std::optional<InArray> plane, std::int64_t budget) {
+        const std::vector<rdmesh::IntervalInstruction> program = program_of(ops, consts);
+        const std::vector<double> L = rows3(lo, "lo"), H = rows3(hi, "hi");
+        const std::vector<double> P = rows3(points, "points"), D = rows3(direction, "direction");
+        const std::size_t n = L.size() / 3, np_ = P.size() / 3;
+        if (H.size() != L.size() || D.size() != L.size())
+          throw std::invalid_argument("lo, hi and direction must have the same shape");
+        for (std::size_t i = 0; i < L.size(); ++i)
+          if (!std::isfinite(L[i]) || !std::isfinite(H[i]) || !(L[i] <= H[i]))
+            throw std::invalid_argument("boxes must be finite with lo <= hi");
+        if (floor.ndim() != 1 || static_cast<std::size_t>(floor.shape(0)) != n)
+          throw std::invalid_argument("floor must have shape (n,), one per box");
+        const std::vector<double> F = copy_of<double>(floor);
+        for (double f : F)
+          if (!(f > 0) || !std::isfinite(f))
+            throw std::invalid_argument("floor must be positive and finite");
+        if (budget < 1) throw std::invalid_argument("budget must be at least 1");
+        if (offsets.ndim() != 1) throw std::invalid_argument("offsets must be 1-D");
+        const std::vector<std::int64_t> C = sample_ids(cell, n, np_, "cell"),
+                                        off = copy_of<std::int64_t>(offsets),
+                                        nb = copy_of<std::int64_t>(neighbour);
+        check_neighbours(off, nb, np_);
+        std::vector<std::int64_t> S;
+        if (skip) {
+          if (skip->ndim() != 1 || static_cast<std::size_t>(skip->shape(0)) != n)
+            throw std::invalid_argument("skip must have shape (n,), one per box");
+          S = copy_of<std::int64_t>(*skip);
+        }
+        std::vector<double> Q;
+        if (plane) {
+          if (plane->ndim() != 2 || static_cast<std::size_t>(plane->shape(0)) != n ||
+              plane->shape(1) != 4)
+            throw std::invalid_argument("plane must have shape (n, 4): normal and offset");
+          Q = copy_of<double>(*plane);
+        }
+        rdmesh::BoxProofInput in;
+        in.n = n;
+        in.lo = L.data();
+        in.hi = H.data();
+        in.cell = C.data();
+        in.skip = skip ? S.data() : nullptr;
+        in.direction = D.data();
+        in.plane = plane ? Q.data() : nullptr;
+        in.floor = F.data();
+        in.points = P.data();
+        in.offsets = off.data();
+        in.neighbour = nb.data();
+        in.budget = static_cast<std::size_t>(budget);
+        rdmesh::BoxProofResult r;
+        {
+          py::gil_scoped_release release;
+          r = rdmesh::prove_boxes(program, in);
+        }
+        const auto nn = static_cast<py::ssize_t>(n);
+        return py::make_tuple(to_numpy(r.failed, {nn}), to_numpy(r.lo, {nn, 3}),
+                              to_numpy(r.hi, {nn, 3}), to_numpy(r.boxes, {nn}));
+      },
+      py::arg("ops"), py::arg("consts"), py::arg("lo"), py::arg("hi"), py::arg("cell"),
+      py::arg("direction"), py::arg("floor"), py::arg("points"), py::arg("offsets"),
+      py::arg("neighbour"), py::arg("skip") = py::none(), py::arg("plane") = py::none(),
+      py::arg("budget") = 1 << 16,
+      "The subdivision of the proven loop and silhouette tests (rdmesh.topology.proven_cells) "
+      "for n owners, each from its first box: (failed (n,) uint8, lo (n, 3), hi (n, 3) of a "
+      "failed owner's unsettled box, boxes (n,) bounded per owner).");
 
   py::class_<RestrictedDelaunay>(m, "RestrictedDelaunay")
       .def(py::init([](const InArray& centre, double radius) {

@@ -186,3 +186,115 @@ def _holds(lo: float, hi: float, exact: Fraction) -> bool:
 def evaluator_both(request, monkeypatch):
     monkeypatch.setattr(intervals, "NATIVE", request.param == "core")
     return request.param
+
+
+# -- the proven tests' subdivision ---------------------------------------------------------
+
+
+def _cell_case(text, seed, n):
+    """A core holding ``n`` random points near the surface ``text`` (radius 2)
+    and what the proven loop and silhouette tests need."""
+    import rdmesh
+    from rdmesh import core
+    from rdmesh.topology.proven_cells import CellGeometry
+    from scipy.spatial import cKDTree
+
+    s = rdmesh.ImplicitSurface.from_expression(text, ((0, 0, 0), 2.0))
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(-1.3, 1.3, (40 * n, 3))
+    x = x[np.argsort(np.abs(s(x)))[:n]]
+    rdt = core.RestrictedDelaunay(s.centre, s.radius)
+    rdt.insert(x)
+    v = rdt.samples()
+    g = s.grad(v)
+    normals = g / np.maximum(np.linalg.norm(g, axis=1), 1e-300)[:, None]
+    return s, rdt, v, normals, CellGeometry.of(rdt, v, s.centre, s.radius), cKDTree(v)
+
+
+@pytest.mark.parametrize("seed", [0])
+@pytest.mark.parametrize("n", [2, 12, 60])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "x**2 + y**2 + z**2 - 1",
+        "(sqrt(x**2 + y**2) - 0.8)**2 + z**2 - 0.09",
+        "x**2/1.44 + y**2 + z**2/0.49 + 0.3*sin(4*x) - 1",
+    ],
+)
+def test_core_subdivision_fails_the_same_facets_and_cells_as_numpy(seed, text, n):
+    # Whether an owner fails does not depend on the order boxes are taken in,
+    # so the core's depth-first run and the numpy level-by-level run must fail
+    # exactly the same facets and cells.
+    from rdmesh.topology.proven_cells import proven_loop_test, proven_silhouette_test
+
+    s, rdt, v, normals, geo, tree = _cell_case(text, seed, n)
+    cells = np.arange(len(v))
+    runs = {}
+    for native in (True, False):
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(intervals, "NATIVE", native)
+            loop = proven_loop_test(s, v, geo, tree)
+            sil = proven_silhouette_test(s, rdt, v, normals, geo, tree, cells)
+        runs[native] = (loop, sil)
+    for a, b in zip(runs[True], runs[False], strict=True):
+        assert np.array_equal(np.sort(a.owners), np.sort(b.owners))
+        # Each refinement point is on the surface (or reported as unplaced).
+        assert len(a.centres) + len(a.stuck) == len(a.owners) == a.count
+        assert np.all(np.abs(s(a.centres)) <= 1e-6)
+    # Two samples split the surface into two big patches, each with a silhouette.
+    if n == 2:
+        assert len(runs[True][1].owners) > 0
+
+
+def _prove_args(budget=1 << 16, **change):
+    s, _, v, normals, geo, _ = _cell_case("x**2 + y**2 + z**2 - 1", 3, 40)
+    ops, consts = compile_program(s.f._root)
+    box = np.array([-1.0, -1.0, -1.0]), np.array([1.0, 1.0, 1.0])
+    n = len(v)
+    args = {
+        "ops": ops, "consts": consts,
+        "lo": np.tile(box[0], (n, 1)), "hi": np.tile(box[1], (n, 1)),
+        "cell": np.arange(n), "direction": normals, "floor": np.full(n, 1e-3),
+        "points": v, "offsets": geo.offsets, "neighbour": geo.neighbour,
+        "budget": budget,
+    }  # fmt: skip
+    args.update(change)
+    return args
+
+
+def test_core_subdivision_budget_makes_owners_fail():
+    from rdmesh.core import prove_boxes
+
+    failed, lo, hi, boxes = prove_boxes(**_prove_args())
+    assert not failed.any()  # 40 samples on the unit sphere: every cell proven
+    assert (boxes > 1).all()
+    # With one box each, no cell can be proven from the whole cube: all fail,
+    # each at its first box.
+    failed, lo, hi, boxes = prove_boxes(**_prove_args(budget=1))
+    assert failed.all() and (boxes == 1).all()
+    assert np.allclose(lo, -1.0) and np.allclose(hi, 1.0)
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        ({"floor": np.zeros(1)}, "floor"),
+        ({"budget": 0}, "budget"),
+        ({"cell": np.full(1, 10**6)}, "cell ids"),
+        ({"lo": np.full((1, 3), np.nan)}, "finite"),
+        ({"lo": np.full((1, 3), 2.0)}, "lo <= hi"),
+        ({"plane": np.zeros((1, 3))}, "plane"),
+        ({"skip": np.zeros(2, np.int64)}, "skip"),
+        ({"direction": np.zeros((2, 3))}, "same shape"),
+        ({"ops": np.array([[99, 0, 0]], np.int32), "consts": np.zeros(1)}, "opcode"),
+    ],
+)
+def test_core_subdivision_rejects_bad_input(change, match):
+    from rdmesh.core import prove_boxes
+
+    args = _prove_args()
+    one = {k: (args[k][:1] if k in ("lo", "hi", "cell", "direction", "floor") else args[k])
+           for k in args}  # fmt: skip
+    one.update(change)
+    with pytest.raises(ValueError, match=match):
+        prove_boxes(**one)

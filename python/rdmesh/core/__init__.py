@@ -8,8 +8,9 @@ of balls that makes a batch a valid sequential run; ``VolumeSampler``, the
 B-spline sampler of :class:`rdmesh.VolumeSurface`; and ``MeshDistance``, the
 distance, side and winding-number queries behind ``MeshSurface``;
 ``evaluate_intervals``, interval bounds of a compiled expression over boxes
-(:mod:`rdmesh.surfaces.interval_program`); and ``boxes_outside_cells``, the
-Voronoi-cell pruning of the proven topological-ball tests.
+(:mod:`rdmesh.surfaces.interval_program`); ``boxes_outside_cells``, the
+Voronoi-cell pruning of the proven topological-ball tests; and
+``prove_boxes``, their whole subdivision, owner by owner, over the cores.
 
 Facet flag bits (set by Python, kept by the core per facet):
 ``RESTRICTED`` (the dual meets the surface), ``BAD`` (fails a criterion),
@@ -32,6 +33,7 @@ from ._rdt import (
     VolumeSampler,
     boxes_outside_cells,
     evaluate_intervals,
+    prove_boxes,
     sample_segments,
     scan_samples,
     select_independent,
@@ -50,6 +52,7 @@ __all__ = [
     "VolumeSampler",
     "boxes_outside_cells",
     "evaluate_intervals",
+    "prove_boxes",
     "sample_segments",
     "scan_samples",
     "select_independent",

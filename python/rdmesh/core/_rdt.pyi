@@ -36,6 +36,26 @@ def boxes_outside_cells(
     neighbour: npt.ArrayLike,
     skip: npt.ArrayLike | None = None,
 ) -> npt.NDArray[np.uint8]: ...
+def prove_boxes(
+    ops: npt.ArrayLike,
+    consts: npt.ArrayLike,
+    lo: npt.ArrayLike,
+    hi: npt.ArrayLike,
+    cell: npt.ArrayLike,
+    direction: npt.ArrayLike,
+    floor: npt.ArrayLike,
+    points: npt.ArrayLike,
+    offsets: npt.ArrayLike,
+    neighbour: npt.ArrayLike,
+    skip: npt.ArrayLike | None = None,
+    plane: npt.ArrayLike | None = None,
+    budget: int = 65536,
+) -> tuple[
+    npt.NDArray[np.uint8],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.int64],
+]: ...
 def evaluate_intervals(
     ops: npt.ArrayLike,
     consts: npt.ArrayLike,

@@ -799,8 +799,9 @@ def _as_expression(expr: Expression | str) -> Expression:
 NATIVE = True
 
 
-def _native(expr: Expression):
-    """The expression's program for the core's evaluator, or None."""
+def native_program(expr: Expression):
+    """The expression's program for the core's evaluator, ``(ops, consts)``, or None
+    (the evaluator is switched off, or the expression uses a function it lacks)."""
     if not NATIVE:
         return None
     if not expr._program:
@@ -812,7 +813,7 @@ def _native(expr: Expression):
 
 def _bounds(expr: Expression, lo, hi, gradient: bool, mean_value: bool):
     """(flo, fhi, glo, ghi, undefined); glo and ghi are None without gradient."""
-    program = _native(expr)
+    program = native_program(expr)
     if program is not None:
         from ..core import evaluate_intervals
 

@@ -41,14 +41,17 @@ import numpy as np
 from .._newton import damped_step
 from .._tol import ON_SURFACE, PROOF_BOX_FLOOR, PROOF_BOX_RELATIVE, TINY
 from .._vectors import row_index, row_norms
-from ..core import boxes_outside_cells
+from ..core import boxes_outside_cells, prove_boxes
 from ..surfaces.expressions import Expression
-from ..surfaces.intervals import dot_bounds
+from ..surfaces.intervals import dot_bounds, native_program
 from ..surfaces.oracle import ImplicitSurface
 from .tests import Violations
 
-#: Boxes kept at one level at most, over all facets or cells.
+#: Boxes kept at one level at most, over all facets or cells (numpy path).
 MAX_BOXES = 1 << 21
+#: Boxes bounded per facet or cell at most (the core's path); an owner that
+#: needs more is a violation.
+BUDGET = 1 << 16
 #: Newton steps that move an unsettled box's centre onto the surface.
 NEWTON_STEPS = 12
 
@@ -137,16 +140,6 @@ def proven_loop_test(
     normal /= np.maximum(row_norms(normal), TINY)[:, None]
     mid = 0.5 * (p + q)
 
-    def on_plane(lo, hi, k):
-        a, b = _span(lo, hi, normal[k])
-        c = np.einsum("ij,ij->i", mid[k], normal[k])
-        # A margin for rounding: a box must not be dropped if it may touch the plane.
-        slack = 1e-12 * (np.abs(a) + np.abs(b) + np.abs(c)) + 1e-300
-        return (a <= c + slack) & (b >= c - slack)
-
-    def matters(lo, hi, k):
-        return ~_outside_cell(lo, hi, e[k, 0], vertices, geometry, skip=e[k, 1])
-
     live = np.flatnonzero(np.all(geometry.lo <= geometry.hi, axis=1))
     direction = np.zeros((len(e), 3))
     direction[live] = _in_plane_direction(
@@ -158,18 +151,16 @@ def proven_loop_test(
         ok = row_norms(across) > TINY
         direction[rows[ok]] = across[ok] / row_norms(across[ok])[:, None]
 
-    def settled(glo, ghi, k):
-        dlo, dhi = dot_bounds(glo, ghi, direction[k])
-        return (dlo > 0) | (dhi < 0)
-
     keys = _edge_keys(e)
     if memo is not None:
         dirty, _ = memo.touched(rdt, len(vertices))
         known = np.isin(keys, memo.clean_edges) & ~np.isin(keys, dirty)
         live = live[~known[live]]
+    plane = np.column_stack([normal, np.einsum("ij,ij->i", mid, normal)])
     out = _prove(
-        "proven_voronoi_loop", surface, vertices, tree,
-        geometry.lo[live], geometry.hi[live], live, matters, settled, on_plane,
+        "proven_voronoi_loop", surface, vertices, tree, geometry,
+        geometry.lo[live], geometry.hi[live], live,
+        cell=e[live, 0], direction=direction[live], skip=e[live, 1], plane=plane[live],
     )  # fmt: skip
     if memo is not None:
         bad = np.zeros(len(e), bool)
@@ -202,15 +193,9 @@ def proven_silhouette_test(
     lo = np.clip(box[:, 0] - pad, c - R, c + R)
     hi = np.clip(box[:, 1] + pad, c - R, c + R)
 
-    def matters(blo, bhi, k):
-        return ~_outside_cell(blo, bhi, k, vertices, geometry)
-
-    def settled(glo, ghi, k):
-        dlo, dhi = dot_bounds(glo, ghi, normals[k])
-        return (dlo > 0) | (dhi < 0)
-
     out = _prove(
-        "proven_silhouette", surface, vertices, tree, lo, hi, cells, matters, settled,
+        "proven_silhouette", surface, vertices, tree, geometry, lo, hi, cells,
+        cell=cells, direction=normals[cells],
     )  # fmt: skip
     if memo is not None:
         memo.clean_cells = np.union1d(done, np.setdiff1d(cells, out.owners))
@@ -219,36 +204,71 @@ def proven_silhouette_test(
 
 
 def _prove(
-    kind, surface, vertices, tree, lo, hi, owner, matters, settled, cheap=None
+    kind, surface, vertices, tree, geometry, lo, hi, owner, cell, direction, skip=None, plane=None
 ) -> Violations:
-    """Subdivide the boxes until each is irrelevant or settled; the rest are violations.
+    """Subdivide each owner's box until every piece is irrelevant or settled.
 
-    ``cheap`` (optional) and ``matters`` say which boxes can matter; both are
-    applied before the interval evaluation (``matters``, the cell pruning, runs
-    in the core), so only boxes that can matter are bounded.
+    Owner ``i`` (row ``owner[i]`` of the facets, or a sample id) starts from
+    box ``lo[i], hi[i]``. A piece is irrelevant when it lies off ``plane[i]``
+    (normal and offset; facets only) or wholly outside the Voronoi cell of
+    ``cell[i]`` (leaving out neighbour ``skip[i]``), or when ``0`` is not in
+    the bounds of ``f``; it is settled when ``grad f . direction[i]`` keeps
+    one sign. An owner with a piece neither at its floor is a violation.
     """
     expr = surface.f
     if not isinstance(expr, Expression):
         raise TypeError(f"{kind} needs an expression surface")
-    # Per owner: not below a fraction of its first box, nor below the absolute floor.
-    size0 = np.zeros(int(owner.max()) + 1 if len(owner) else 0)
-    size0[owner] = (hi - lo).max(axis=1)
-    floor = np.maximum(PROOF_BOX_FLOOR * surface.radius, PROOF_BOX_RELATIVE * size0)
-    done = np.zeros(len(size0), bool)
+    # Not below a fraction of the first box, nor below the absolute floor.
+    floor = np.maximum(
+        PROOF_BOX_FLOOR * surface.radius, PROOF_BOX_RELATIVE * (hi - lo).max(axis=1, initial=0.0)
+    )
+    program = native_program(expr)
+    if program is None:
+        failed, blo, bhi = _prove_numpy(
+            expr, vertices, geometry, lo, hi, cell, direction, skip, plane, floor
+        )
+    else:
+        failed, blo, bhi, boxes = prove_boxes(
+            *program, lo, hi, cell, direction, floor, vertices,
+            geometry.offsets, geometry.neighbour, skip, plane, BUDGET,
+        )  # fmt: skip
+        expr._boxes[0] += int(boxes.sum())
+        failed = np.flatnonzero(failed)
+        blo, bhi = blo[failed], bhi[failed]
+    if not len(failed):
+        return _Proof(kind, 0, np.zeros((0, 3)), np.zeros(0), owners=np.zeros(0, np.int64))
+    start = 0.5 * (blo + bhi)
+    x, ok = _onto_surface(surface, start, (bhi - blo).max(axis=1))
+    dist, _ = tree.query(x[ok])
+    return _Proof(kind, len(failed), x[ok], dist, start[~ok], owners=np.asarray(owner)[failed])
+
+
+def _prove_numpy(expr, vertices, geometry, lo, hi, cell, direction, skip, plane, floor):
+    """What the core's ``prove_boxes`` does, level by level in numpy, for
+    expressions the core cannot bound: (failed rows, their first unsettled boxes)."""
+    owner = np.arange(len(lo))
+    done = np.zeros(len(lo), bool)
     bad_lo, bad_hi, bad_owner = [], [], []
     while len(lo):
         # One unsettled box makes an owner a violation: drop the rest of it.
         keep = ~done[owner]
-        if cheap is not None:
-            keep &= cheap(lo, hi, owner)
+        if plane is not None:
+            a, b = _span(lo, hi, plane[owner, :3])
+            c = plane[owner, 3]
+            # A margin for rounding: a box must not be dropped if it may touch the plane.
+            slack = 1e-12 * (np.abs(a) + np.abs(b) + np.abs(c)) + 1e-300
+            keep &= (a <= c + slack) & (b >= c - slack)
         lo, hi, owner = lo[keep], hi[keep], owner[keep]
-        keep = matters(lo, hi, owner)
+        keep = ~_outside_cell(
+            lo, hi, cell[owner], vertices, geometry, None if skip is None else skip[owner]
+        )
         lo, hi, owner = lo[keep], hi[keep], owner[keep]
         if not len(lo):
             break
         enc = expr.interval_gradient(lo, hi, mean_value=True)
+        dlo, dhi = dot_bounds(enc.glo, enc.ghi, direction[owner])
         open_ = (enc.lo <= 0) & (enc.hi >= 0)
-        open_ &= enc.undefined | ~settled(enc.glo, enc.ghi, owner)
+        open_ &= enc.undefined | ~((dlo > 0) | (dhi < 0))
         lo, hi, owner = lo[open_], hi[open_], owner[open_]
         side = hi - lo
         small = side.max(axis=1) <= floor[owner]
@@ -272,14 +292,11 @@ def _prove(
         lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi1, hi])
         owner = np.concatenate([owner, owner])
     if not bad_lo:
-        return _Proof(kind, 0, np.zeros((0, 3)), np.zeros(0), owners=np.zeros(0, np.int64))
+        return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3))
     blo, bhi, bown = (np.concatenate(x) for x in (bad_lo, bad_hi, bad_owner))
-    # One violation per facet or cell: its first unsettled box.
-    owners, first = np.unique(bown, return_index=True)
-    start = 0.5 * (blo[first] + bhi[first])
-    x, ok = _onto_surface(surface, start, (bhi[first] - blo[first]).max(axis=1))
-    dist, _ = tree.query(x[ok])
-    return _Proof(kind, len(first), x[ok], dist, start[~ok], owners=owners)
+    # One violation per owner: its first unsettled box.
+    failed, first = np.unique(bown, return_index=True)
+    return failed, blo[first], bhi[first]
 
 
 @dataclass

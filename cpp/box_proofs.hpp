@@ -1,0 +1,46 @@
+// The subdivision behind the proven loop and silhouette tests
+// (rdmesh.topology.proven_cells): each owner (a Voronoi facet or cell) starts
+// from one box, and a box is dropped when it cannot meet the owner's region
+// (off the facet's plane, or wholly outside the sample's Voronoi cell), when
+// 0 is not in the bounds of f over it, or when grad f . d keeps one sign over
+// it (settled); other boxes are halved along their longest side.  An owner
+// fails at its first unsettled box no longer than its floor (or once it has
+// used its budget of boxes).  Whether an owner fails does not depend on the
+// order the boxes are taken in: it fails when its tree holds such a box.
+// Owners are independent, so they are spread over the cores.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "interval_eval.hpp"
+
+namespace rdmesh {
+
+struct BoxProofInput {
+  std::size_t n = 0;                      // owners
+  const double* lo = nullptr;             // (n, 3) first boxes
+  const double* hi = nullptr;             // (n, 3)
+  const std::int64_t* cell = nullptr;     // (n,) the sample whose Voronoi cell holds the region
+  const std::int64_t* skip = nullptr;     // (n,) a neighbour to leave out, or null
+  const double* direction = nullptr;      // (n, 3) d of the settling test
+  const double* plane = nullptr;          // (n, 4) unit normal and offset, or null
+  const double* floor = nullptr;          // (n,) least box side
+  const double* points = nullptr;         // samples (rows of 3)
+  const std::int64_t* offsets = nullptr;  // CSR of each sample's Delaunay neighbours
+  const std::int64_t* neighbour = nullptr;
+  std::size_t budget = 0;                 // boxes bounded per owner at most
+};
+
+struct BoxProofResult {
+  std::vector<std::uint8_t> failed;  // (n,)
+  std::vector<double> lo, hi;        // (n, 3) a failed owner's unsettled box (else 0)
+  std::vector<std::int64_t> boxes;   // (n,) boxes bounded per owner
+};
+
+// Checks the program; throws std::invalid_argument for a bad one.
+BoxProofResult prove_boxes(const std::vector<IntervalInstruction>& program,
+                           const BoxProofInput& in);
+
+}  // namespace rdmesh
