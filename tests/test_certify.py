@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import rdmesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rdmesh.sampling.discovery import discover
 from rdmesh.sampling.isolate import isolate_roots
 from rdmesh.surfaces.expressions import parse_expression
@@ -192,3 +194,27 @@ def test_proven_loop_test_finds_a_loop_inside_a_facet():
     # Samples on the sphere, an octahedron: each facet meets it in one arc.
     s, rdt, v, n, geo, tree = _cells(small, _octahedron(0.3))
     assert proven_loop_test(s, v, geo, tree).count == 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    width=st.integers(1, 3),
+    top=st.sampled_from([3, 60, 10**6, 2**40, 2**62]),
+)
+def test_row_index_finds_each_row_in_the_table(seed, width, top):
+    # The proofs look up facets and edges with it; keys of any size.
+    from rdmesh._vectors import row_index
+
+    rng = np.random.default_rng(seed)
+    table = rng.integers(0, top, (rng.integers(0, 40), width))
+    rows = rng.integers(0, top, (rng.integers(0, 40), width))
+    if len(table):
+        rows = np.concatenate([rows, table[rng.integers(0, len(table), 10)]])
+    got = row_index(rows, table)
+    present = np.array([any((t == r).all() for t in table) for r in rows], bool)
+    assert np.array_equal(got >= 0, present)
+    assert np.array_equal(table[got[present]], rows[present])
+    # A repeated row of the table gives its last position.
+    for r, i in zip(rows[present], got[present], strict=True):
+        assert not (table[i + 1 :] == r).all(axis=1).any()

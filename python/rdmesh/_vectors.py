@@ -22,10 +22,27 @@ def unit_rows(v: np.ndarray) -> np.ndarray:
 
 
 def row_index(rows: np.ndarray, table: np.ndarray) -> np.ndarray:
-    """Index in ``table`` of each of ``rows`` (rows of integers), -1 where absent."""
-    both = np.concatenate([table, rows]).astype(np.int64)
-    _, inv = np.unique(both, axis=0, return_inverse=True)
-    inv = inv.ravel()
-    pos = np.full(inv.max() + 1 if len(inv) else 0, -1, np.int64)
-    pos[inv[: len(table)]] = np.arange(len(table))
-    return pos[inv[len(table) :]]
+    """Index in ``table`` of each of ``rows`` (rows of integers), -1 where absent
+    (the last one where ``table`` repeats a row)."""
+    rows = np.asarray(rows, dtype=np.int64)
+    table = np.asarray(table, dtype=np.int64)
+    if len(rows) == 0 or len(table) == 0:
+        return np.full(len(rows), -1, np.int64)
+    both = np.concatenate([table, rows])
+    low = both.min(axis=0)
+    span = both.max(axis=0) - low + 1
+    if float(np.prod(span.astype(np.float64))) >= 2.0**62:
+        # Too wide for one integer key: sort the rows themselves.
+        _, inv = np.unique(both, axis=0, return_inverse=True)
+        inv = inv.ravel()
+        pos = np.full(inv.max() + 1, -1, np.int64)
+        pos[inv[: len(table)]] = np.arange(len(table))
+        return pos[inv[len(table) :]]
+    # One integer key per row, then a binary search in the sorted table.
+    key = np.ravel_multi_index(tuple((both - low).T), tuple(int(s) for s in span))
+    tk, rk = key[: len(table)], key[len(table) :]
+    order = np.argsort(tk, kind="stable")
+    sorted_keys = tk[order]
+    at = np.searchsorted(sorted_keys, rk, side="right") - 1
+    found = (at >= 0) & (sorted_keys[np.maximum(at, 0)] == rk)
+    return np.where(found, order[np.maximum(at, 0)], -1)

@@ -66,19 +66,20 @@ class ProofMemo:
     since stays proven: it is not tested again (the surface is fixed).
     """
 
-    samples: int = 0  # samples at the last proof
+    edge_samples: int = 0  # samples at the last loop proof
+    cell_samples: int = 0  # samples at the last silhouette proof
     clean_edges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     clean_cells: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     _dirty: tuple | None = None
 
-    def touched(self, rdt, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
+    def touched(self, rdt, since: int, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
         """Keys of the Delaunay edges, and the samples, whose Voronoi facet or
-        cell changed since the last proof (computed once per snapshot size)."""
-        if self._dirty is None or self._dirty[0] != n_samples:
-            new = np.arange(self.samples, n_samples, dtype=np.int64)
+        cell changed since there were ``since`` samples (computed once per pair)."""
+        if self._dirty is None or self._dirty[0] != (since, n_samples):
+            new = np.arange(since, n_samples, dtype=np.int64)
             edges = rdt.delaunay_edges(new) if len(new) else np.zeros((0, 2), np.int64)
             cells = np.union1d(np.unique(edges), new)
-            self._dirty = (n_samples, np.sort(_edge_keys(edges)), cells)
+            self._dirty = ((since, n_samples), np.sort(_edge_keys(edges)), cells)
         return self._dirty[1], self._dirty[2]
 
 
@@ -152,8 +153,8 @@ def proven_loop_test(
         direction[rows[ok]] = across[ok] / row_norms(across[ok])[:, None]
 
     keys = _edge_keys(e)
-    if memo is not None:
-        dirty, _ = memo.touched(rdt, len(vertices))
+    if memo is not None and len(memo.clean_edges):
+        dirty, _ = memo.touched(rdt, memo.edge_samples, len(vertices))
         known = np.isin(keys, memo.clean_edges) & ~np.isin(keys, dirty)
         live = live[~known[live]]
     plane = np.column_stack([normal, np.einsum("ij,ij->i", mid, normal)])
@@ -166,6 +167,7 @@ def proven_loop_test(
         bad = np.zeros(len(e), bool)
         bad[out.owners] = True
         memo.clean_edges = np.sort(keys[~bad])
+        memo.edge_samples = len(vertices)
     return out
 
 
@@ -181,8 +183,9 @@ def proven_silhouette_test(
 ) -> Violations:
     """The silhouette test on the Voronoi cells of ``cells`` (sample ids), with proof."""
     cells = np.asarray(cells, np.int64)
-    if memo is not None:
-        _, dirty = memo.touched(rdt, len(vertices))
+    done = cells[:0]
+    if memo is not None and len(memo.clean_cells):
+        _, dirty = memo.touched(rdt, memo.cell_samples, len(vertices))
         known = np.isin(cells, memo.clean_cells) & ~np.isin(cells, dirty)
         done, cells = cells[known], cells[~known]
     # Each cell's bounding box (its vertices are circumcentres, rounded: widen
@@ -199,7 +202,7 @@ def proven_silhouette_test(
     )  # fmt: skip
     if memo is not None:
         memo.clean_cells = np.union1d(done, np.setdiff1d(cells, out.owners))
-        memo.samples = len(vertices)
+        memo.cell_samples = len(vertices)
     return out
 
 
