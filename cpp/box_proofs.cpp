@@ -68,10 +68,14 @@ void prove_owner(std::size_t i, const BoxProofInput& in, BoxEvaluator& eval,
     if (plane && !meets_plane(box, plane)) continue;
     if (box_outside_cell(box.lo, box.hi, in.cell[i], skip, in.points, in.offsets, in.neighbour))
       continue;
+    // The gradient settles many boxes: the mean-value form (a second pass, at
+    // the centre) only where it must decide.
     eval.evaluate(box.lo, box.hi, b);
     ++count;
-    if (!(b.lo <= 0 && b.hi >= 0)) continue;
     if (!b.undefined && settled(b, d)) continue;
+    if (!(b.lo <= 0 && b.hi >= 0)) continue;
+    eval.tighten(box.lo, box.hi, b);
+    if (!(b.lo <= 0 && b.hi >= 0)) continue;
     int axis = 0;
     double side[3];
     for (int k = 0; k < 3; ++k) {
@@ -114,7 +118,7 @@ BoxProofResult prove_boxes(const std::vector<IntervalInstruction>& program,
   std::mutex error_lock;
   const auto work = [&]() {
     try {
-      BoxEvaluator eval(program, true, true);
+      BoxEvaluator eval(program, true, false);
       std::vector<Box> stack;
       for (std::size_t i = next++; i < in.n; i = next++) prove_owner(i, in, eval, stack, out);
     } catch (...) {  // e.g. bad_alloc: rethrown below, never out of a thread

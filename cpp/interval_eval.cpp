@@ -535,35 +535,37 @@ BoxEvaluator::~BoxEvaluator() = default;
 void BoxEvaluator::evaluate(const double* l, const double* h, BoxBounds& out) {
   bool undef = false;
   const Dual& d = m_->box.run(l, h, undef);
-  double flo = d.v.lo, fhi = d.v.hi;
   I G[3] = {point(0.0), point(0.0), point(0.0)};
   if (m_->box.has_gradient())
     for (int k = 0; k < 3; ++k) G[k] = m_->box.gradient(m_->size - 1, k);
   for (int k = 0; k < 3; ++k) {
-    out.glo[k] = gradient_ ? G[k].lo : 0.0;
-    out.ghi[k] = gradient_ ? G[k].hi : 0.0;
+    out.glo[k] = G[k].lo;
+    out.ghi[k] = G[k].hi;
   }
-  if (mean_value_ && !undef) {
-    bool ok = true;
-    for (int k = 0; k < 3; ++k)
-      ok = ok && std::isfinite(l[k]) && std::isfinite(h[k]) && std::isfinite(G[k].lo) &&
-           std::isfinite(G[k].hi);
-    if (ok) {
-      double m[3];
-      for (int k = 0; k < 3; ++k) m[k] = std::clamp(0.5 * l[k] + 0.5 * h[k], l[k], h[k]);
-      bool mundef = false;
-      const Dual& c = m_->centre.run(m, m, mundef);
-      if (!mundef) {
-        I total = c.v;
-        for (int k = 0; k < 3; ++k) total = add(total, mul(G[k], sub({l[k], h[k]}, point(m[k]))));
-        flo = std::max(flo, total.lo);
-        fhi = std::min(fhi, total.hi);
-      }
-    }
-  }
-  out.lo = flo;
-  out.hi = fhi;
+  out.lo = d.v.lo;
+  out.hi = d.v.hi;
   out.undefined = undef;
+  if (mean_value_) tighten(l, h, out);
+  if (!gradient_)
+    for (int k = 0; k < 3; ++k) out.glo[k] = out.ghi[k] = 0.0;
+}
+
+void BoxEvaluator::tighten(const double* l, const double* h, BoxBounds& b) {
+  if (b.undefined) return;
+  for (int k = 0; k < 3; ++k)
+    if (!std::isfinite(l[k]) || !std::isfinite(h[k]) || !std::isfinite(b.glo[k]) ||
+        !std::isfinite(b.ghi[k]))
+      return;
+  double m[3];
+  for (int k = 0; k < 3; ++k) m[k] = std::clamp(0.5 * l[k] + 0.5 * h[k], l[k], h[k]);
+  bool mundef = false;
+  const Dual& c = m_->centre.run(m, m, mundef);
+  if (mundef) return;
+  I total = c.v;
+  for (int k = 0; k < 3; ++k)
+    total = add(total, mul({b.glo[k], b.ghi[k]}, sub({l[k], h[k]}, point(m[k]))));
+  b.lo = std::max(b.lo, total.lo);
+  b.hi = std::min(b.hi, total.hi);
 }
 
 namespace {

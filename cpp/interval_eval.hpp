@@ -63,6 +63,10 @@ class BoxEvaluator {
   BoxEvaluator& operator=(const BoxEvaluator&) = delete;
   // The box [lo, hi] (3 values each); glo/ghi are zero without gradient.
   void evaluate(const double* lo, const double* hi, BoxBounds& out);
+  // Intersects out's value bounds with the mean-value form f(m) + G . (X - m)
+  // (m the box centre), where f is defined on the whole box: what evaluate does
+  // with mean_value.  out must hold the box's natural bounds and gradient.
+  void tighten(const double* lo, const double* hi, BoxBounds& out);
 
  private:
   struct Machines;
