@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import ast
 import math
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -525,6 +526,10 @@ class _Compiler:
         return _Nary(key, args)
 
 
+#: Guards every expression's box count (the facet worker thread bounds boxes too).
+_BOX_COUNT_LOCK = threading.Lock()
+
+
 @dataclass(frozen=True, eq=False)
 class Expression:
     """A parsed expression: ``expr(points)`` evaluates it on ``(N, 3)`` points.
@@ -591,7 +596,7 @@ class Expression:
         from .intervals import interval
 
         out = interval(self, lo, hi, mean_value=mean_value)
-        self._boxes[0] += len(out.lo)
+        self.count_boxes(len(out.lo))
         return out
 
     def interval_gradient(
@@ -606,8 +611,14 @@ class Expression:
         from .intervals import interval_gradient
 
         out = interval_gradient(self, lo, hi, mean_value=mean_value)
-        self._boxes[0] += len(out.lo)
+        self.count_boxes(len(out.lo))
         return out
+
+    def count_boxes(self, n: int) -> None:
+        """Add ``n`` boxes bounded elsewhere (the core's proofs) to
+        :attr:`interval_evaluations`; safe from several threads."""
+        with _BOX_COUNT_LOCK:
+            self._boxes[0] += n
 
     def __repr__(self) -> str:
         return f"Expression({self.text!r})"

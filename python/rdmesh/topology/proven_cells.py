@@ -235,7 +235,7 @@ def _prove(
             *program, lo, hi, cell, direction, floor, vertices,
             geometry.offsets, geometry.neighbour, skip, plane, BUDGET,
         )  # fmt: skip
-        expr._boxes[0] += int(boxes.sum())
+        expr.count_boxes(int(boxes.sum()))
         failed = np.flatnonzero(failed)
         blo, bhi = blo[failed], bhi[failed]
     if not len(failed):
