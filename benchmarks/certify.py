@@ -116,15 +116,18 @@ def _run(text, sphere, *, certify, **kw) -> dict:
     }
 
 
-def cost(repeats: int, method: str = "topological-ball") -> list[dict]:
-    """Part 1: each public surface, sampled and certified, alternating."""
+def cost(
+    repeats: int, method: str = "topological-ball", fractions: tuple = (None, 20.0)
+) -> list[dict]:
+    """Part 1: each public surface, sampled and certified, alternating, with the
+    radius bound R / fraction for each of ``fractions`` (None: no size bound)."""
     rows = []
     for name, text in BUILTIN_EXPRESSIONS.items():
         info = SURFACES[name]
         made = info.make()
         radius = float(made.radius)
         sphere = (tuple(float(c) for c in made.centre), radius)
-        for bound in (None, radius / 20):
+        for bound in (None if k is None else radius / k for k in fractions):
             runs = {False: [], True: []}
             for r in range(repeats):
                 for certify in (False, True) if r % 2 == 0 else (True, False):
@@ -210,10 +213,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--skip-cost", action="store_true", help="only the hard cases")
     ap.add_argument("--skip-hard", action="store_true", help="only the cost part")
     ap.add_argument("--method", default="topological-ball", help="the cost part's method")
+    ap.add_argument(
+        "--fractions",
+        nargs="+",
+        default=["none", "20"],
+        help="radius bounds of the cost part, as R / fraction ('none': no size bound)",
+    )
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     logging.getLogger("rdmesh").setLevel(logging.WARNING)
-    costs = [] if args.skip_cost else cost(args.repeats, args.method)
+    try:
+        fractions = tuple(None if f == "none" else float(f) for f in args.fractions)
+    except ValueError:
+        ap.error(f"--fractions takes numbers or 'none', got {args.fractions}")
+    if any(f is not None and not f > 0 for f in fractions):
+        ap.error("--fractions must be positive")
+    costs = [] if args.skip_cost else cost(args.repeats, args.method, fractions)
     cases = [] if args.skip_hard else hard()
     text = _markdown(costs, cases, args.method)
     print(text)

@@ -50,7 +50,7 @@ bool settled(const BoxBounds& g, const double* d) {
 }
 
 void prove_owner(std::size_t i, const BoxProofInput& in, BoxEvaluator& eval,
-                 std::vector<Box>& stack, BoxProofResult& out) {
+                 std::vector<Box>& stack, std::vector<CellPlane>& planes, BoxProofResult& out) {
   Box first;
   for (int k = 0; k < 3; ++k) {
     first.lo[k] = in.lo[3 * i + k];
@@ -58,6 +58,8 @@ void prove_owner(std::size_t i, const BoxProofInput& in, BoxEvaluator& eval,
   }
   stack.assign(1, first);
   const std::int64_t skip = in.skip ? in.skip[i] : -1;
+  // The owner's bisectors once, not per box.
+  cell_planes(in.cell[i], skip, in.points, in.offsets, in.neighbour, planes);
   const double* plane = in.plane ? in.plane + 4 * i : nullptr;
   const double* d = in.direction + 3 * i;
   std::size_t count = 0;
@@ -66,8 +68,7 @@ void prove_owner(std::size_t i, const BoxProofInput& in, BoxEvaluator& eval,
     const Box box = stack.back();
     stack.pop_back();
     if (plane && !meets_plane(box, plane)) continue;
-    if (box_outside_cell(box.lo, box.hi, in.cell[i], skip, in.points, in.offsets, in.neighbour))
-      continue;
+    if (box_beyond(box.lo, box.hi, planes)) continue;
     // The gradient settles many boxes: the mean-value form (a second pass, at
     // the centre) only where it must decide.
     eval.evaluate(box.lo, box.hi, b);
@@ -120,7 +121,9 @@ BoxProofResult prove_boxes(const std::vector<IntervalInstruction>& program,
     try {
       BoxEvaluator eval(program, true, false);
       std::vector<Box> stack;
-      for (std::size_t i = next++; i < in.n; i = next++) prove_owner(i, in, eval, stack, out);
+      std::vector<CellPlane> planes;
+      for (std::size_t i = next++; i < in.n; i = next++)
+        prove_owner(i, in, eval, stack, planes, out);
     } catch (...) {  // e.g. bad_alloc: rethrown below, never out of a thread
       const std::lock_guard<std::mutex> hold(error_lock);
       if (!error) error = std::current_exception();

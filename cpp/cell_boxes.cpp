@@ -1,28 +1,38 @@
 #include "cell_boxes.hpp"
 
 #include <cmath>
+#include <vector>
 
 namespace rdmesh {
 
-bool box_outside_cell(const double* L, const double* H, std::int64_t p, std::int64_t skip,
-                      const double* points, const std::int64_t* offsets,
-                      const std::int64_t* neighbour) {
+void cell_planes(std::int64_t p, std::int64_t skip, const double* points,
+                 const std::int64_t* offsets, const std::int64_t* neighbour,
+                 std::vector<CellPlane>& out) {
+  out.clear();
   const double* P = points + 3 * p;
   const double pn = std::sqrt(P[0] * P[0] + P[1] * P[1] + P[2] * P[2]);
   for (std::int64_t j = offsets[p]; j < offsets[p + 1]; ++j) {
     const std::int64_t q = neighbour[j];
     if (q == skip) continue;
     const double* Q = points + 3 * q;
-    double a = 0.0, c = 0.0, ww = 0.0;
+    CellPlane c;
+    double off = 0.0, ww = 0.0;
     for (int k = 0; k < 3; ++k) {
-      const double w = Q[k] - P[k];
-      a += (w > 0 ? L[k] : H[k]) * w;  // the least x . w over the box
-      c += 0.5 * (P[k] + Q[k]) * w;
-      ww += w * w;
+      c.w[k] = Q[k] - P[k];
+      off += 0.5 * (P[k] + Q[k]) * c.w[k];
+      ww += c.w[k] * c.w[k];
     }
-    if (a > c + 1e-12 * (std::fabs(c) + std::sqrt(ww) * pn)) return true;
+    c.limit = off + 1e-12 * (std::fabs(off) + std::sqrt(ww) * pn);
+    out.push_back(c);
   }
-  return false;
+}
+
+bool box_outside_cell(const double* L, const double* H, std::int64_t p, std::int64_t skip,
+                      const double* points, const std::int64_t* offsets,
+                      const std::int64_t* neighbour) {
+  thread_local std::vector<CellPlane> planes;
+  cell_planes(p, skip, points, offsets, neighbour, planes);
+  return box_beyond(L, H, planes);
 }
 
 std::vector<std::uint8_t> boxes_outside_cells(const double* lo, const double* hi,

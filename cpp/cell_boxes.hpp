@@ -10,6 +10,29 @@
 
 namespace rdmesh {
 
+// The bisector of sample p and a neighbour q: a box lies wholly beyond it
+// when the least x . w over the box (w = q - p) exceeds limit (the bisector's
+// offset plus the relative margin below).
+struct CellPlane {
+  double w[3];
+  double limit;
+};
+
+// The bisectors of p and its neighbours other than skip (-1: none).
+void cell_planes(std::int64_t p, std::int64_t skip, const double* points,
+                 const std::int64_t* offsets, const std::int64_t* neighbour,
+                 std::vector<CellPlane>& out);
+
+// Whether the box [L, H] lies wholly beyond one of the planes.
+inline bool box_beyond(const double* L, const double* H, const std::vector<CellPlane>& planes) {
+  for (const CellPlane& c : planes) {
+    double a = 0.0;
+    for (int k = 0; k < 3; ++k) a += (c.w[k] > 0 ? L[k] : H[k]) * c.w[k];
+    if (a > c.limit) return true;
+  }
+  return false;
+}
+
 // Whether the box [L, H] lies wholly beyond the bisector of sample p and one
 // of its neighbours other than skip (-1: none), as below.
 bool box_outside_cell(const double* L, const double* H, std::int64_t p, std::int64_t skip,

@@ -26,6 +26,7 @@
 #include "mesh_distance.hpp"
 #include "rdt.hpp"
 #include "sample_scan.hpp"
+#include "segment_roots.hpp"
 
 namespace py = pybind11;
 using rdmesh::RestrictedDelaunay;
@@ -400,6 +401,38 @@ PYBIND11_MODULE(_rdt, m) {
       "The subdivision of the proven loop and silhouette tests (rdmesh.topology.proven_cells) "
       "for n owners, each from its first box: (failed (n,) uint8, lo (n, 3), hi (n, 3) of a "
       "failed owner's unsettled box, boxes (n,) bounded per owner).");
+
+  m.def(
+      "isolate_segment_roots",
+      [](const OpArray& ops, const InArray& consts, const InArray& a, const InArray& b,
+         double min_length, std::int64_t budget) {
+        const std::vector<rdmesh::IntervalInstruction> program = program_of(ops, consts);
+        const std::vector<double> A = rows3(a, "a"), B = rows3(b, "b");
+        if (A.size() != B.size()) throw std::invalid_argument("a and b must have the same shape");
+        for (std::size_t i = 0; i < A.size(); ++i)
+          if (!std::isfinite(A[i]) || !std::isfinite(B[i]))
+            throw std::invalid_argument("segment ends must be finite");
+        if (!(min_length > 0) || !std::isfinite(min_length))
+          throw std::invalid_argument("min_length must be positive and finite");
+        if (budget < 1) throw std::invalid_argument("budget must be at least 1");
+        rdmesh::SegmentRoots r;
+        {
+          py::gil_scoped_release release;
+          r = rdmesh::isolate_segment_roots(program, A.data(), B.data(), A.size() / 3, min_length,
+                                            static_cast<std::size_t>(budget));
+        }
+        auto n = [](const auto& v) { return std::vector<py::ssize_t>{static_cast<py::ssize_t>(v.size())}; };
+        return py::make_tuple(to_numpy(r.found_segment, n(r.found_segment)),
+                              to_numpy(r.found_lo, n(r.found_lo)),
+                              to_numpy(r.found_hi, n(r.found_hi)),
+                              to_numpy(r.pending_segment, n(r.pending_segment)),
+                              to_numpy(r.pending_lo, n(r.pending_lo)),
+                              to_numpy(r.pending_hi, n(r.pending_hi)), r.boxes);
+      },
+      py::arg("ops"), py::arg("consts"), py::arg("a"), py::arg("b"), py::arg("min_length"),
+      py::arg("budget") = 1 << 16,
+      "Proven root isolation on segments [a_i, b_i] (rdmesh.sampling.isolate): "
+      "(found segment, t0, t1, pending segment, t0, t1, boxes), by segment, then t0.");
 
   py::class_<RestrictedDelaunay>(m, "RestrictedDelaunay")
       .def(py::init([](const InArray& centre, double radius) {

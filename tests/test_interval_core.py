@@ -298,3 +298,64 @@ def test_core_subdivision_rejects_bad_input(change, match):
     one.update(change)
     with pytest.raises(ValueError, match=match):
         prove_boxes(**one)
+
+
+# -- root isolation on segments -------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "x**2 + y**2 + z**2 - 1",
+        "(x**2 + y**2 + z**2 + 1 - 0.1**2)**2 - 4*(x**2 + y**2)",
+        "sin(3*x)*cos(3*y) + sin(3*y)*cos(3*z) + sin(3*z)*cos(3*x)",
+        "min(sqrt(x**2+y**2+z**2)-1, sqrt((x-1.5)**2+(y-0.3)**2+(z-0.2)**2)-0.02)",
+    ],
+)
+def test_core_isolation_finds_the_pieces_of_the_numpy_bisection(text, seed):
+    # Found and pending pieces are the leaves of one bisection tree, so the
+    # core (depth first, over the cores) and numpy (level by level) must give
+    # exactly the same ones, with the same evaluator's bounds.
+    from rdmesh.sampling.isolate import _isolate_numpy, isolate_roots
+
+    expr = parse_expression(text)
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(-1.6, 1.6, (400, 3))
+    b = a + rng.normal(scale=0.7, size=(400, 3))
+    # Segments tangent to the unit sphere at their midpoint, and a point segment.
+    n = rng.normal(size=(20, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    t = np.cross(n, rng.normal(size=(20, 3)))
+    t /= np.linalg.norm(t, axis=1)[:, None]
+    a = np.concatenate([a, n - 0.3 * t, [[0.3, 0.2, 0.1]]])
+    b = np.concatenate([b, n + 0.3 * t, [[0.3, 0.2, 0.1]]])
+    got = isolate_roots(expr, a, b, 1e-7)
+    ref = _isolate_numpy(expr, a, b, 1e-7)
+    for field in ("segment", "lo", "hi", "count", "resolved", "pending_segment", "pending_lo",
+                  "pending_hi", "boxes"):  # fmt: skip
+        assert np.array_equal(getattr(got, field), getattr(ref, field)), field
+    assert got.count.sum() > 0
+    if text.startswith("x**2 + y**2"):
+        assert not got.resolved[400:420].all()  # the tangent segments stay pending
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        ({"a": np.full((1, 3), np.nan)}, "finite"),
+        ({"b": np.zeros((2, 3))}, "same shape"),
+        ({"min_length": 0.0}, "min_length"),
+        ({"budget": 0}, "budget"),
+        ({"ops": np.array([[1, 5, -1]], np.int32), "consts": np.zeros(1)}, "axis"),
+    ],
+)
+def test_core_isolation_rejects_bad_input(change, match):
+    from rdmesh.core import isolate_segment_roots
+
+    ops, consts = compile_program(parse_expression("x**2 + y**2 + z**2 - 1")._root)
+    args = {"ops": ops, "consts": consts, "a": np.zeros((1, 3)), "b": np.ones((1, 3)),
+            "min_length": 1e-9, "budget": 100}  # fmt: skip
+    args.update(change)
+    with pytest.raises(ValueError, match=match):
+        isolate_segment_roots(**args)

@@ -10,7 +10,8 @@ distance, side and winding-number queries behind ``MeshSurface``;
 ``evaluate_intervals``, interval bounds of a compiled expression over boxes
 (:mod:`rdmesh.surfaces.interval_program`); ``boxes_outside_cells``, the
 Voronoi-cell pruning of the proven topological-ball tests; and
-``prove_boxes``, their whole subdivision, owner by owner, over the cores.
+``prove_boxes``, their whole subdivision, owner by owner, over the cores;
+and ``isolate_segment_roots``, proven root isolation on segments.
 
 Facet flag bits (set by Python, kept by the core per facet):
 ``RESTRICTED`` (the dual meets the surface), ``BAD`` (fails a criterion),
@@ -33,6 +34,7 @@ from ._rdt import (
     VolumeSampler,
     boxes_outside_cells,
     evaluate_intervals,
+    isolate_segment_roots,
     prove_boxes,
     sample_segments,
     scan_samples,
@@ -52,6 +54,7 @@ __all__ = [
     "VolumeSampler",
     "boxes_outside_cells",
     "evaluate_intervals",
+    "isolate_segment_roots",
     "prove_boxes",
     "sample_segments",
     "scan_samples",

@@ -36,6 +36,22 @@ def boxes_outside_cells(
     neighbour: npt.ArrayLike,
     skip: npt.ArrayLike | None = None,
 ) -> npt.NDArray[np.uint8]: ...
+def isolate_segment_roots(
+    ops: npt.ArrayLike,
+    consts: npt.ArrayLike,
+    a: npt.ArrayLike,
+    b: npt.ArrayLike,
+    min_length: float,
+    budget: int = 65536,
+) -> tuple[
+    npt.NDArray[np.int64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    int,
+]: ...
 def prove_boxes(
     ops: npt.ArrayLike,
     consts: npt.ArrayLike,

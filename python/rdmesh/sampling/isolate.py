@@ -13,7 +13,9 @@ dotted with ``b - a``. A piece is settled when
 Other pieces are halved, down to a floor length; a piece still unsettled there
 (a near-tangency, a singular point, a root at an end) is *unresolved*: the
 count of its segment is not proven. All segments and pieces of one level go
-through one vectorised interval evaluation.
+through one vectorised interval evaluation; with the core's evaluator the
+whole bisection runs in the core (``core.isolate_segment_roots``), segment
+by segment over the cores, with the same pieces.
 """
 
 from __future__ import annotations
@@ -22,11 +24,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core import isolate_segment_roots
 from ..surfaces.expressions import Expression
-from ..surfaces.intervals import dot_bounds
+from ..surfaces.intervals import dot_bounds, native_program
 
-#: Pieces kept at one level at most (bounds the memory of a call).
+#: Pieces kept at one level at most (bounds the memory of a call; numpy path).
 MAX_PIECES = 1 << 21
+#: Pieces bounded per segment at most (the core's path); a segment that needs
+#: more keeps its unsettled pieces pending.
+BUDGET = 1 << 16
 
 
 @dataclass
@@ -79,6 +85,17 @@ def isolate_roots(expr: Expression, a: np.ndarray, b: np.ndarray, min_length: fl
     """
     a = np.asarray(a, np.float64).reshape(-1, 3)
     b = np.asarray(b, np.float64).reshape(-1, 3)
+    program = native_program(expr)
+    if program is None:
+        return _isolate_numpy(expr, a, b, min_length)
+    fs, flo, fhi, ps, plo, phi, boxes = isolate_segment_roots(*program, a, b, min_length, BUDGET)
+    expr.count_boxes(boxes)
+    return _isolation(len(a), fs, flo, fhi, ps, plo, phi, boxes)
+
+
+def _isolate_numpy(expr: Expression, a: np.ndarray, b: np.ndarray, min_length: float):
+    """:func:`isolate_roots` level by level in numpy, for expressions the core
+    cannot bound (and to check the core against)."""
     n = len(a)
     d = b - a
     length = np.sqrt(np.einsum("ij,ij->i", d, d))
@@ -122,11 +139,19 @@ def isolate_roots(expr: Expression, a: np.ndarray, b: np.ndarray, min_length: fl
         t1 = np.column_stack([mid, t1[go]]).ravel()
     fs, flo, fhi = (np.concatenate(c) for c in zip(*found, strict=True)) if found else _none(3)
     ps, plo, phi = (np.concatenate(c) for c in zip(*pending, strict=True)) if pending else _none(3)
+    return _isolation(n, fs, flo, fhi, ps, plo, phi, boxes)
+
+
+def _isolation(n, fs, flo, fhi, ps, plo, phi, boxes) -> Isolation:
+    """The result, brackets and pending pieces sorted by segment, then ``t``."""
     order = np.lexsort((flo, fs))
     count = np.bincount(fs, minlength=n)
     resolved = np.ones(n, bool)
     resolved[ps] = False
-    return Isolation(fs[order], flo[order], fhi[order], count, resolved, ps, plo, phi, boxes)
+    wait = np.lexsort((plo, ps))
+    return Isolation(
+        fs[order], flo[order], fhi[order], count, resolved, ps[wait], plo[wait], phi[wait], boxes
+    )
 
 
 def _sign(lo: np.ndarray, hi: np.ndarray, undefined: np.ndarray) -> np.ndarray:

@@ -54,6 +54,9 @@ MAX_BOXES = 1 << 21
 BUDGET = 1 << 16
 #: Newton steps that move an unsettled box's centre onto the surface.
 NEWTON_STEPS = 12
+#: Newton steps towards the surface for a facet's direction: any direction is
+#: valid (a poor one only costs boxes), so a rough surface point will do.
+DIRECTION_STEPS = 3
 
 
 @dataclass
@@ -335,7 +338,7 @@ def _in_plane_direction(surface, lo, hi, mid, normal) -> np.ndarray:
     surface), or any in-plane unit vector where that vanishes."""
     x = 0.5 * (lo + hi)
     x -= np.einsum("ij,ij->i", x - mid, normal)[:, None] * normal
-    x, _ = _onto_surface(surface, x, (hi - lo).max(axis=1))
+    x, _ = _onto_surface(surface, x, (hi - lo).max(axis=1), DIRECTION_STEPS)
     g = surface.grad(x)
     g -= np.einsum("ij,ij->i", g, normal)[:, None] * normal
     axis = np.where(np.abs(normal[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
@@ -345,10 +348,12 @@ def _in_plane_direction(surface, lo, hi, mid, normal) -> np.ndarray:
     return g / np.maximum(row_norms(g), TINY)[:, None]
 
 
-def _onto_surface(surface: ImplicitSurface, x: np.ndarray, cap: np.ndarray):
+def _onto_surface(
+    surface: ImplicitSurface, x: np.ndarray, cap: np.ndarray, steps: int = NEWTON_STEPS
+):
     """Newton from ``x`` onto ``f = 0``, each step at most ``cap``; (points, converged)."""
     R = surface.radius
-    for _ in range(NEWTON_STEPS):
+    for _ in range(steps):
         fx = surface(x)
         g = surface.grad(x)
         gg = np.maximum(np.einsum("ij,ij->i", g, g), TINY)
