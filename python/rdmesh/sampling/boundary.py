@@ -149,8 +149,7 @@ def boundary_curve(
     cut_id = np.full(len(ends), -1)
     cut_id[cut] = np.arange(int(cut.sum()))
     if box is None:
-        # Along great-circle arcs, between the unit grid points.
-        crossing = _edge_roots(surface, u[a[cut]], u[b[cut]], _unit_to_sphere(c0, R))
+        crossing = _arc_roots(surface, u[a[cut]], u[b[cut]])
     else:
         crossing = _edge_roots(surface, x[a[cut]], x[b[cut]], None)
     corner = on_edge[cut]
@@ -342,6 +341,11 @@ def sphere_grid(h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return u, ends, tri_edges
 
 
+def _arc_roots(surface: ImplicitSurface, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The crossing of ``f`` on the arc from ``c0 + R p`` to ``c0 + R q`` (unit p, q)."""
+    return _edge_roots(surface, p, q, _unit_to_sphere(surface.centre, surface.radius))
+
+
 def _edge_roots(
     surface: ImplicitSurface,
     p: np.ndarray,
@@ -368,8 +372,9 @@ def _edge_roots(
     # runs through a grid point): that end is the crossing.
     failed = ~np.isfinite(t)
     if failed.any():
-        fa = np.abs(surface(p[failed]))
-        fb = np.abs(surface(q[failed]))
+        sub = tuple(a[failed] for a in args)
+        fa = np.abs(surface(point(np.zeros(int(failed.sum())), *sub)))
+        fb = np.abs(surface(point(np.ones(int(failed.sum())), *sub)))
         t = t.copy()
         t[failed] = np.where(fa <= fb, 0.0, 1.0)
         log.debug("boundary curve: %d edge root searches ended at a grid point", int(failed.sum()))
