@@ -11,43 +11,15 @@ import numpy as np
 import pytest
 import rdmesh
 import volumes
+from clipped_volumes import HI, LO, TORUS_BOX, corner_sphere, cylinder, plane, torus
+from clipped_volumes import volume as _volume
 from rdmesh import core
 from rdmesh.sampling.boundary import box_grid
 from rdmesh.topology.complex import complex_status
 from scipy.optimize import brentq
 from test_cli import load, run
 
-LO, HI = np.array([-1.0, -1.0, -1.0]), np.array([1.0, 1.0, 1.0])
 SIZE, DISTANCE = 0.1, 0.01
-
-
-def _volume(f, lo=LO, hi=HI, n=24):
-    """``-f`` sampled on an ``n``-per-axis grid over the box: the clipped surface."""
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    spacing = (hi - lo) / (n - 1)
-    pts = volumes.grid((n, n, n), spacing, lo).reshape(-1, 3)
-    vol = -f(pts).reshape(n, n, n)
-    return rdmesh.VolumeSurface(
-        vol, spacing=spacing, origin=lo, isovalue=0.0, border="clipped", name="clipped"
-    )
-
-
-def plane(p):
-    return p[:, 2] - 0.13 - 0.1 * p[:, 0]
-
-
-def cylinder(p):
-    return np.hypot(p[:, 0], p[:, 1]) - 0.55
-
-
-def corner_sphere(p):
-    """A sphere about (0.7, 0.7, 0.7): the box corner (1, 1, 1) cuts a cap off."""
-    return np.linalg.norm(p - 0.7, axis=1) - 0.8
-
-
-def torus(p):
-    """A torus about the z axis (radii 0.6 and 0.25)."""
-    return np.hypot(np.hypot(p[:, 0], p[:, 1]) - 0.6, p[:, 2]) - 0.25
 
 
 def _boundary(m: rdmesh.SurfaceMesh) -> tuple[np.ndarray, np.ndarray]:
@@ -168,7 +140,7 @@ def test_a_sphere_cut_by_a_box_corner_has_a_vertex_at_each_edge_crossing():
 
 def test_a_torus_cut_by_one_box_face_keeps_its_handle():
     # x <= 0.7 cuts the tube once: a torus with one hole, chi = 2 - 2 - 1.
-    s = _volume(torus, lo=(-1.0, -1.0, -0.5), hi=(0.7, 1.0, 0.5), n=32)
+    s = _volume(torus, *TORUS_BOX, n=32)
     m = _mesh(s)
     _check(s, m, loops=1, chi=-1)
     _, bv = _boundary(m)
@@ -204,12 +176,7 @@ def test_incompatible_options_are_refused_with_the_fix(clipped, kwargs, match):
 def test_the_default_topology_of_a_clipped_volume_has_a_boundary_and_closed_stays_closed():
     vol = _volume(plane, n=8)
     assert vol.clip_box is not None and np.array_equal(vol.clip_box, vol.box)
-    closed = rdmesh.VolumeSurface(
-        -plane(volumes.grid((8, 8, 8), (HI - LO) / 7, LO).reshape(-1, 3)).reshape(8, 8, 8),
-        spacing=(HI - LO) / 7,
-        origin=LO,
-        isovalue=0.0,
-    )
+    closed = _volume(plane, n=8, border="closed")
     assert closed.clip_box is None
     m = rdmesh.mesh_surface(closed, radius_bound=0.3)
     assert m.is_closed_manifold() and m.report["boundary"] is None
