@@ -182,6 +182,13 @@ def test_the_default_topology_of_a_clipped_volume_has_a_boundary_and_closed_stay
     assert m.is_closed_manifold() and m.report["boundary"] is None
 
 
+def test_a_clip_box_must_lie_in_the_bounding_sphere():
+    s = _volume(plane, n=8)
+    s.clip_box = np.array([[-2.0, -1.0, -1.0], [1.0, 1.0, 1.0]])
+    with pytest.raises(ValueError, match="must lie inside its bounding sphere"):
+        rdmesh.mesh_surface(s)
+
+
 def test_a_bad_border_is_refused():
     with pytest.raises(ValueError, match=r"unknown border 'open'"):
         rdmesh.VolumeSurface(np.random.default_rng(0).random((5, 5, 5)), border="open")
