@@ -227,7 +227,7 @@ def box_grid(box: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndar
             p11, p01 = key[1:, 1:].ravel(), key[:-1, 1:].ravel()
             keys.append(key.ravel())
             tris += [np.column_stack([p00, p10, p11]), np.column_stack([p00, p11, p01])]
-    uniq, _ = np.unique(np.concatenate(keys)), None
+    uniq = np.unique(np.concatenate(keys))
     tri = np.searchsorted(uniq, np.concatenate(tris))
     ii, r = np.divmod(uniq, size[1] * size[2])
     jj, kk = np.divmod(r, size[2])
