@@ -443,6 +443,22 @@ PYBIND11_MODULE(_rdt, m) {
            }),
            py::arg("centre"), py::arg("radius"))
       .def(
+          "set_clip_box",
+          [](RestrictedDelaunay& self, const InArray& lo, const InArray& hi) {
+            for (const InArray* a : {&lo, &hi})
+              if (a->ndim() != 1 || a->shape(0) != 3)
+                throw std::invalid_argument("clip box corners must have shape (3,)");
+            const double* l = lo.data();
+            const double* h = hi.data();
+            locked(self, [&] { self.set_clip_box({l[0], l[1], l[2]}, {h[0], h[1], h[2]}); });
+          },
+          py::arg("lo"), py::arg("hi"),
+          "Clip every dual segment to the box [lo, hi] as well as to the ball "
+          "(before the first insertion; ValueError for a non-finite box or lo >= hi, "
+          "RuntimeError after an insertion).")
+      .def_property_readonly(
+          "has_clip_box", [](const RestrictedDelaunay& self) { return self.has_clip_box(); })
+      .def(
           "insert",
           [](RestrictedDelaunay& self, const InArray& points) {
             const std::vector<double> xyz = rows3(points, "points");

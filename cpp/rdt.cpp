@@ -143,8 +143,21 @@ bool RestrictedDelaunay::clip(Vec3& a, Vec3& b) const {
   const double disc = B * B - A * C;
   if (!(disc > 0.0)) return false;
   const double s = std::sqrt(disc);
-  const double lo = std::max(0.0, (-B - s) / A);
-  const double hi = std::min(1.0, (-B + s) / A);
+  double lo = std::max(0.0, (-B - s) / A);
+  double hi = std::min(1.0, (-B + s) / A);
+  if (has_box_) {
+    // Slab clipping: the parameter range inside each pair of face planes.
+    for (int k = 0; k < 3 && lo < hi; ++k) {
+      if (d[k] == 0.0) {
+        if (a[k] < box_lo_[k] || a[k] > box_hi_[k]) return false;
+        continue;
+      }
+      double t0 = (box_lo_[k] - a[k]) / d[k], t1 = (box_hi_[k] - a[k]) / d[k];
+      if (t0 > t1) std::swap(t0, t1);
+      lo = std::max(lo, t0);
+      hi = std::min(hi, t1);
+    }
+  }
   if (!(lo < hi)) return false;
   const Vec3 a0 = a;
   if (lo > 0.0)
@@ -152,6 +165,20 @@ bool RestrictedDelaunay::clip(Vec3& a, Vec3& b) const {
   if (hi < 1.0)
     for (int k = 0; k < 3; ++k) b[k] = a0[k] + hi * d[k];
   return true;
+}
+
+void RestrictedDelaunay::set_clip_box(const Vec3& lo, const Vec3& hi) {
+  if (!finite3(lo.data()) || !finite3(hi.data()))
+    throw std::invalid_argument("clip box corners must be finite");
+  for (int k = 0; k < 3; ++k)
+    if (!(lo[k] < hi[k]))
+      throw std::invalid_argument(
+          "clip box needs lo < hi on every axis (lo is the lowest corner, hi the highest)");
+  if (!samples_.empty())
+    throw std::logic_error("set_clip_box must come before the first insertion");
+  box_lo_ = lo;
+  box_hi_ = hi;
+  has_box_ = true;
 }
 
 void RestrictedDelaunay::mark_fresh(Cell_handle c) {

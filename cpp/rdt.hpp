@@ -191,6 +191,13 @@ class RestrictedDelaunay {
   // circumcentres.
   std::vector<double> voronoi_cell_boxes(const std::int64_t* ids, std::size_t n);
 
+  // Clip every dual segment to the axis-aligned box [lo, hi] as well as to
+  // the bounding ball (a mesh with a boundary on the box faces).  Only before
+  // the first insertion; throws std::invalid_argument for a non-finite box or
+  // one with lo >= hi on some axis, std::logic_error after an insertion.
+  void set_clip_box(const std::array<double, 3>& lo, const std::array<double, 3>& hi);
+  bool has_clip_box() const { return has_box_; }
+
   std::size_t number_of_samples() const { return samples_.size(); }
   // Facets whose new status changed_facets derived from a KNOWN old one
   // instead of handing them out, since construction.
@@ -228,6 +235,8 @@ class RestrictedDelaunay {
   Delaunay dt_;
   std::array<double, 3> c0_;
   double radius_;
+  bool has_box_ = false;
+  std::array<double, 3> box_lo_{}, box_hi_{};
   std::vector<Vertex_handle> samples_;
   std::vector<Vertex_handle> last_new_;
   // Chunks handed out and not yet updated, oldest first.  Both sides of each

@@ -298,7 +298,7 @@ BAD_INPUTS = [
     ({"volume": np.full((5, 5, 5), 3.0)}, rdmesh.EmptySurfaceError, r"constant"),
     ({"inside": "above"}, ValueError, r"unknown inside 'above'"),
     ({"interpolation": "quintic"}, ValueError, r"unknown interpolation"),
-    ({"border": "clipped"}, ValueError, r"not supported yet"),
+    ({"border": "open"}, ValueError, r"unknown border 'open'"),
 ]
 
 

@@ -19,7 +19,7 @@ def mesh_surface(
     angle_bound: float = 30.0,
     radius_bound: float | Sizing | None = None,
     distance_bound: float | None = None,
-    topology: str = "manifold",
+    topology: str | None = None,
     method: str = "boissonnat-oudot",
     seed: int = 0,
     max_vertices: int | None = None,
@@ -50,9 +50,12 @@ def mesh_surface(
     distance_bound : float, optional
         Largest distance between a facet's circumcentre and its surface
         centre (an approximation bound); None disables it.
-    topology : {"manifold", "manifold-with-boundary", "non-manifold"}
+    topology : {"manifold", "manifold-with-boundary", "non-manifold"}, optional
         As CGAL's Manifold_tag, Manifold_with_boundary_tag and
-        Non_manifold_tag: what the final refinement stage repairs. With
+        Non_manifold_tag: what the final refinement stage repairs. Default
+        (None): "manifold", or "manifold-with-boundary" for a surface clipped
+        to a box (``VolumeSurface(border="clipped")``, whose ``clip_box`` is
+        set), which accepts no other topology. With
         "manifold-with-boundary" (Boissonnat-Oudot only) the surface may also
         cross the bounding sphere: the mesh is the part inside. The curve
         where the surface meets the sphere is traced on a fine point set of
@@ -64,7 +67,9 @@ def mesh_surface(
         sphere; those with two or three (an edge along the boundary curve)
         are exempt (their smallest angle is measured, not bounded: 19.6
         degrees on a gyroid, see the README).
-        Sampled, not certified: ``certify`` is refused.
+        Sampled, not certified: ``certify`` is refused. On a surface with a
+        clip box the same holds with the box faces in place of the sphere;
+        the curve's corners, where it crosses a box edge, are samples.
     method : {"boissonnat-oudot", "topological-ball"}
         The refinement algorithm. "topological-ball" (Cheng-Dey-Ramos-Ray)
         first refines until the topological-ball tests hold (every Voronoi
@@ -117,7 +122,9 @@ def mesh_surface(
     Raises
     ------
     ValueError
-        Invalid criteria, method or topology.
+        Invalid criteria, method or topology; a surface clipped to a box
+        with a topology other than "manifold-with-boundary", the
+        topological-ball method or ``certify=True``.
     rdmesh.OracleError
         ``f`` raised, returned the wrong shape or a non-finite value.
     rdmesh.EmptySurfaceError
@@ -147,7 +154,7 @@ def mesh_surface(
             f"surface must be an rdmesh.ImplicitSurface, got {type(surface).__name__}"
         )
     choice("method", method, METHODS)
-    choice("topology", topology, TOPOLOGIES)
+    topology = _topology(surface, topology, method)
     if method == "topological-ball" and topology != "manifold":
         raise ValueError(
             f"method 'topological-ball' always produces a closed manifold; topology "
@@ -206,3 +213,27 @@ def mesh_surface(
             mesher.progress = bar.update
             return mesher.run()
     return mesher.run()
+
+
+def _topology(surface: ImplicitSurface, topology: str | None, method: str) -> str:
+    """The topology to use: the default per surface, checked against its clip box."""
+    boxed = getattr(surface, "clip_box", None) is not None
+    if topology is None:
+        topology = "manifold-with-boundary" if boxed else "manifold"
+    choice("topology", topology, TOPOLOGIES)
+    if not boxed:
+        return topology
+    if method != "boissonnat-oudot":
+        raise ValueError(
+            f"method {method!r} cannot mesh {surface.name!r}, which is clipped to a box "
+            "(a surface with a boundary): use method='boissonnat-oudot' (with "
+            "topology='manifold-with-boundary', the default for it), or border='closed' "
+            "for a closed surface"
+        )
+    if topology != "manifold-with-boundary":
+        raise ValueError(
+            f"topology {topology!r} cannot mesh {surface.name!r}, which is clipped to a box: "
+            "its mesh has a boundary on the box faces; use topology='manifold-with-boundary' "
+            "(the default for it), or border='closed' for a closed surface"
+        )
+    return topology

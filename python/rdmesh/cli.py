@@ -238,9 +238,10 @@ def _add_run_options(p: argparse.ArgumentParser, method: bool) -> None:
         )
     p.add_argument(
         "--topology",
-        default="manifold",
+        default=None,
         choices=TOPOLOGIES,
-        help="what the last stage repairs, as CGAL's tags (default manifold)",
+        help="what the last stage repairs, as CGAL's tags (default manifold; "
+        "manifold-with-boundary for a volume with --border clipped)",
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument(
@@ -381,16 +382,16 @@ def _surface(args) -> ImplicitSurface:
 
 # -- volumes: ``rdmesh mesh volume.npy --isovalue V [--spacing SX SY SZ] ...`` --------
 
-_VOLUME_OPTIONS = ("isovalue", "spacing", "origin", "inside", "interpolation")
+_VOLUME_OPTIONS = ("isovalue", "spacing", "origin", "inside", "interpolation", "border")
 
 
 def _add_volume_options(p: argparse.ArgumentParser) -> None:
-    from .surfaces.volume import INSIDE, INTERPOLATIONS
+    from .surfaces.volume import BORDERS, INSIDE, INTERPOLATIONS
 
     g = p.add_argument_group(
         "volumes",
         "SURFACE may be a 3-D numpy array saved as .npy: its isosurface is meshed, closed by "
-        "the faces of the volume's box where it reaches them",
+        "the faces of the volume's box where it reaches them (or cut there: --border clipped)",
     )
     g.add_argument(
         "--isovalue", type=_number, metavar="V", help="level to mesh (default mid-range)"
@@ -417,6 +418,12 @@ def _add_volume_options(p: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--interpolation", choices=INTERPOLATIONS, help="cubic B-spline (default) or trilinear"
     )
+    g.add_argument(
+        "--border",
+        choices=BORDERS,
+        help="closed (default): closed by the box faces, watertight; clipped: cut at the box "
+        "faces, a mesh with a boundary (topology manifold-with-boundary)",
+    )
 
 
 def _is_volume(args) -> bool:
@@ -430,7 +437,8 @@ def _is_volume(args) -> bool:
 
 
 def _volume_surface(args) -> ImplicitSurface:
-    """The isosurface of the volume in the .npy file SURFACE (closed by its box)."""
+    """The isosurface of the volume in the .npy file SURFACE (closed by its box, or
+    clipped to it with ``--border clipped``)."""
     import numpy as np
 
     from .surfaces.volume import VolumeSurface

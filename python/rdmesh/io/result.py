@@ -66,11 +66,13 @@ class SurfaceMesh:
         ``components``, ``euler``, ``boundary_loops``, ``closed_manifold``
             Of the output mesh.
         ``boundary``
-            A surface that leaves the bounding sphere
-            (``topology="manifold-with-boundary"``): ``curve_loops`` traced on
-            the sphere, ``mesh_loops``, ``loops_match``, ``genus`` per
-            component from chi = 2 - 2g - b and ``euler_consistent`` (a whole
-            genus, at least 0); None otherwise.
+            A surface that leaves the bounding sphere or its clip box
+            (``topology="manifold-with-boundary"``): ``domain`` ("sphere" or
+            "box"), ``curve_loops`` traced on it, ``edge_crossings`` (box:
+            where the curve crosses a box edge, each a sample),
+            ``mesh_loops``, ``loops_match``, ``genus`` per component from
+            chi = 2 - 2g - b and ``euler_consistent`` (a whole genus, at
+            least 0); None otherwise.
         ``unresolved_regions``, ``violation_regions``
             Where points were refused by the spacing floor, or tests still fail:
             ``centre``, ``radius`` and ``points`` of each cluster.

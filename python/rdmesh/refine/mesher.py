@@ -23,6 +23,7 @@ from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._tol import REGION_LINK
 from ..io.result import SurfaceMesh
 from ..sampling.boundary import BoundaryCurve, guard_boundary
+from ..sampling.domain import clip_box
 from ..sampling.grid import check_sphere_near
 from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
@@ -98,6 +99,21 @@ class Mesher:
         self.certify = certify
         self.timer = PhaseTimer()
         self.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
+        box = clip_box(surface)
+        if box is not None:
+            if topology != "manifold-with-boundary":
+                raise ValueError(
+                    f"{surface.name!r} is clipped to a box (clip_box is set): it needs "
+                    f"topology='manifold-with-boundary', got {topology!r}"
+                )
+            # The boundary curve is traced on the box faces: all of them in the ball.
+            corners = np.stack(np.meshgrid(*box.T, indexing="ij"), axis=-1).reshape(-1, 3)
+            if np.linalg.norm(corners - surface.centre, axis=1).max() >= surface.radius:
+                raise ValueError(
+                    f"the clip box {box.tolist()} of {surface.name!r} must lie inside its "
+                    "bounding sphere"
+                )
+            self.rdt.set_clip_box(box[0], box[1])
         self.samples = Samples(self.rdt)
         self.memo = LoopMemo()
         self.proofs = ProofMemo()

@@ -22,10 +22,10 @@ from scipy.spatial import cKDTree
 
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
-from .._vectors import row_norms
-from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve
+from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
 from ..sampling.critical import CriticalPoints, critical_points
 from ..sampling.discovery import Discovery, discover
+from ..sampling.domain import clip_box, depth
 from ..sampling.grid import GridScan, fibonacci_sphere, grid_scan
 from ..sampling.probes import Probes, surface_probes
 from ..surfaces.oracle import ImplicitSurface
@@ -78,8 +78,9 @@ def boissonnat_oudot(
     """Seeds from the grid scan (and, to certify, from the interval subdivision);
     stages as CGAL's Surface_mesher with its manifold tags.
 
-    With ``topology="manifold-with-boundary"`` the surface may leave the ball:
-    the curve where it meets the sphere is sampled first
+    With ``topology="manifold-with-boundary"`` the surface may leave the ball
+    (or the surface's clip box): the curve where it meets the sphere (the box
+    faces) is sampled first
     (:mod:`rdmesh.sampling.boundary`) and its points are the first seeds.
     """
     spacing = criteria.radius_bound if isinstance(criteria.radius_bound, float) else None
@@ -91,9 +92,8 @@ def boissonnat_oudot(
         field = criteria.sizing if callable(criteria.radius_bound) else None
         boundary = boundary_curve(surface, size, criteria.distance_bound, resolution, field)
         if len(boundary.points):
-            # Seeds in the band along the sphere could be boundary vertices.
-            depth = surface.radius - row_norms(scan.seeds - surface.centre)
-            inner = scan.seeds[depth >= SEED_BAND * size]
+            # Seeds in the band along the clipping surface could be boundary vertices.
+            inner = scan.seeds[depth(surface, scan.seeds) >= SEED_BAND * size]
             seeds = np.concatenate([boundary.points, _away(inner, boundary.points, 0.5 * size)])
             scan = GridScan(seeds, scan.crossings, scan.spacing)
     stages: list[Stage] = [FacetStage("facet", core.BAD | core.TOPO, "unless-bad")]
@@ -197,15 +197,22 @@ def _scan(
 
 def _boundary_spacing(surface: ImplicitSurface, criteria: FacetCriteria) -> float:
     """Largest spacing of the boundary curve's samples: the size bound (a
-    sizing field's largest value on the sphere, the field itself setting the
+    sizing field's largest value on the sphere or the clip box, the field itself setting the
     spacing along the curve; a twentieth of R without one)."""
     bound = criteria.radius_bound
     if bound is None:
         return surface.radius / 20.0
     if not callable(bound):
         return float(bound)
-    on_sphere = surface.centre + surface.radius * fibonacci_sphere(4000)
-    return float(np.max(criteria.sizing(on_sphere)))
+    box = clip_box(surface)
+    if box is None:
+        on_boundary = surface.centre + surface.radius * fibonacci_sphere(4000)
+    else:
+        e = box[1] - box[0]
+        on_boundary = box_grid(
+            box, float(np.sqrt(2.0 * (e[0] * e[1] + e[1] * e[2] + e[0] * e[2]) / 4000))
+        )[0]
+    return float(np.max(criteria.sizing(on_boundary)))
 
 
 def _away(points: np.ndarray, anchors: np.ndarray, distance: float) -> np.ndarray:

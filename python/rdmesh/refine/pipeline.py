@@ -19,7 +19,8 @@ from concurrent.futures import ThreadPoolExecutor, wait
 import numpy as np
 
 from .. import core
-from ..sampling.grid import ON_SPHERE, check_sphere_ends
+from ..sampling.domain import on_clip_surface
+from ..sampling.grid import check_sphere_ends
 from ..surfaces.oracle import ImplicitSurface
 from .criteria import FacetCriteria
 from .facets import SAMPLING, DualSamples, evaluate_facets
@@ -145,10 +146,9 @@ class FacetPipeline:
             exempt = None
             if self.clipped:
                 # Facets with an edge on the boundary curve: two vertices on
-                # the sphere.
-                d = np.linalg.norm(corners - self.surface.centre, axis=2)
-                on = np.abs(d - self.surface.radius) <= ON_SPHERE * self.surface.radius
-                exempt = on.sum(axis=1) >= 2
+                # the clipping surface (the sphere or the clip box).
+                on = on_clip_surface(self.surface, corners.reshape(-1, 3))
+                exempt = on.reshape(-1, 3).sum(axis=1) >= 2
             bad[r] = self.criteria.bad(corners, ev.centre[r], ev.radius[r], exempt)
             topo = r & ((ev.n_cross >= 2) | ev.tangential)
             flags[sl] = (

@@ -12,13 +12,21 @@ of at most the size bound (tighter where the curve bends, so that a chord
 stays within the distance bound), and every point is then projected onto C by
 Newton steps along the sphere. These points are inserted first, as fixed
 samples. Sampled: a loop of C smaller than the point set's spacing is missed.
+
+When the surface has a clip box (``ImplicitSurface.clip_box``, inside the
+ball) the same is done on the box's surface instead: a grid on each face,
+the faces sharing their edge points (:func:`box_grid`), so the loops run on
+across the faces. C has a corner where it crosses a box edge; that crossing
+is found by the root search along the grid edges lying on the box edges,
+kept as a sample (resampling runs from corner to corner) and never moved.
+Newton steps then stay in each point's face.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import elementwise
@@ -30,6 +38,7 @@ from scipy.spatial.transform import Rotation
 from .._newton import damped_step
 from .._vectors import row_norms
 from ..surfaces.oracle import ImplicitSurface
+from .domain import clip_box
 
 log = logging.getLogger("rdmesh")
 
@@ -59,6 +68,9 @@ class BoundaryCurve:
         edges, on the curve, consecutive ones at most ``gap`` apart.
     gap : the longest edge of the sphere grid (times R): a bound on
         the distance between consecutive traced points.
+    domain : "sphere" or "box": the surface the curve was traced on.
+    corners : (c, 3) the samples where the curve crosses a box edge (found
+        by root finding along the edge; also in ``points``).
     """
 
     points: np.ndarray
@@ -68,6 +80,8 @@ class BoundaryCurve:
     size: float
     dense: np.ndarray
     gap: float = 0.0
+    domain: str = "sphere"
+    corners: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
     def n_loops(self) -> int:
@@ -81,7 +95,8 @@ def boundary_curve(
     resolution: int = 64,
     sizing: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> BoundaryCurve:
-    """Find and sample the curve ``f = 0`` on the bounding sphere.
+    """Find and sample the curve ``f = 0`` on the clipping surface: the
+    bounding sphere, or the surface's clip box.
 
     Parameters
     ----------
@@ -100,28 +115,44 @@ def boundary_curve(
     Returns
     -------
     BoundaryCurve
-        Empty when ``f`` does not change sign on the sampled sphere.
+        Empty when ``f`` does not change sign on the sampled surface.
     """
     c0, R = surface.centre, surface.radius
+    box = clip_box(surface)
     # Spacing: a quarter of the size bound, and finer than the grid scan.
     h = min(0.25 * size, 2.0 * R / resolution)
-    # A grid of about 2 pi^2 / h^2 points, within the point budget.
-    lo, hi = np.sqrt(2.0 * np.pi**2 / MAX_POINTS), np.sqrt(2.0 * np.pi**2 / MIN_POINTS)
-    u, ends, tri_edges = sphere_grid(float(np.clip(h / R, lo, hi)))
-    n = len(u)
-    h = np.sqrt(4.0 * np.pi / n) * R
-    inside = surface(c0 + R * u) < 0
+    if box is None:
+        # A grid of about 2 pi^2 / h^2 points, within the point budget.
+        lo, hi = np.sqrt(2.0 * np.pi**2 / MAX_POINTS), np.sqrt(2.0 * np.pi**2 / MIN_POINTS)
+        u, ends, tri_edges = sphere_grid(float(np.clip(h / R, lo, hi)))
+        x = c0 + R * u
+        h = np.sqrt(4.0 * np.pi / len(u)) * R
+        on_edge = np.zeros(len(ends), bool)
+        domain = "sphere"
+    else:
+        e = box[1] - box[0]
+        area = 2.0 * float(e[0] * e[1] + e[1] * e[2] + e[0] * e[2])
+        h = float(np.clip(h, np.sqrt(area / MAX_POINTS), np.sqrt(area / MIN_POINTS)))
+        x, ends, tri_edges, on_edge = box_grid(box, h)
+        domain = "box"
+    n = len(x)
+    inside = surface(x) < 0
     a, b = ends[:, 0], ends[:, 1]
     cut = inside[a] != inside[b]
-    gap = float(R * row_norms(u[a] - u[b]).max())
+    gap = float(row_norms(x[a] - x[b]).max())
     empty = BoundaryCurve(
-        np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0), h, size, np.zeros((0, 3))
-    )
+        np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0), h, size, np.zeros((0, 3)),
+        gap, domain,
+    )  # fmt: skip
     if not cut.any():
         return empty
     cut_id = np.full(len(ends), -1)
     cut_id[cut] = np.arange(int(cut.sum()))
-    crossing = _arc_roots(surface, u[a[cut]], u[b[cut]])
+    if box is None:
+        crossing = _arc_roots(surface, u[a[cut]], u[b[cut]])
+    else:
+        crossing = _edge_roots(surface, x[a[cut]], x[b[cut]], None)
+    corner = on_edge[cut]
     # Marching triangles: a triangle with a sign change has exactly two cut edges.
     ids = cut_id[tri_edges]  # (T, 3) cut index of each triangle edge
     has = ids >= 0
@@ -131,28 +162,113 @@ def boundary_curve(
     g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
     n_loops, label = connected_components(g, directed=False)
     order, loop = _loop_order(pairs, label, n_loops, m)
-    pts = crossing[order]
+    order = _start_at_corners(order, loop, corner)
+    pts, fixed = crossing[order], corner[order]
     local = np.full(len(pts), size) if sizing is None else np.minimum(size, sizing(pts))
-    points, which, lengths = _resample(pts, loop, n_loops, local, distance)
-    points = project_onto_curve(surface, points)
+    points, which, lengths, kept = _resample(pts, loop, n_loops, local, distance, fixed)
+    moving = ~kept
+    points[moving] = project_onto_curve(surface, points[moving])
     # A projection that did not converge is not on the surface: dropped.
     g = row_norms(surface.grad(points))
     on = np.abs(surface(points)) <= CURVE_TOL * R * np.maximum(g, 1e-300)
     if not on.all():
         log.warning(
             "boundary curve: %d of %d samples did not converge onto the curve and were "
-            "dropped (the surface may be tangent to the sphere there)",
+            "dropped (the surface may be tangent to the %s there)",
             int((~on).sum()),
             len(on),
+            domain,
         )
-        points, which = points[on], which[on]
+        points, which, kept = points[on], which[on], kept[on]
     log.info(
-        "boundary curve: %d loops on the sphere (%d sphere points), %d samples",
+        "boundary curve: %d loops on the %s (%d grid points), %d samples, %d at box edges",
         n_loops,
+        domain,
         n,
         len(points),
+        int(kept.sum()),
     )
-    return BoundaryCurve(points, which, lengths, h, size, pts, gap)
+    return BoundaryCurve(points, which, lengths, h, size, pts, gap, domain, points[kept])
+
+
+def box_grid(box: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A triangulated point grid on the surface of an axis-aligned box, edges about ``h``.
+
+    Each face is a grid of the box's lattice points, its quads split along a
+    diagonal; faces share the points of their common edges, so the grid is
+    one closed surface. Inner lattice lines are shifted off the uniform
+    positions by an irrational fraction of a cell, so that planes at round
+    coordinates do not run through rows of grid points.
+
+    Returns
+    -------
+    x : (n, 3) the points.
+    ends : (E, 2) the two points of each edge.
+    tri_edges : (T, 3) the three edges of each triangle.
+    on_edge : (E,) bool: the grid edge lies on an edge of the box.
+    """
+    lo, hi = box
+    axes = []
+    for k in range(3):
+        cells = max(1, int(np.ceil((hi[k] - lo[k]) / h)))
+        t = (np.arange(cells) + _SHIFT) / cells
+        axes.append(lo[k] + (hi[k] - lo[k]) * np.r_[0.0, t, 1.0])
+    size = np.array([len(a) for a in axes])
+    keys, tris = [], []
+    for k in range(3):
+        b, c = [j for j in range(3) if j != k]
+        nb, nc = size[b], size[c]
+        i, j = np.meshgrid(np.arange(nb), np.arange(nc), indexing="ij")
+        for side in (0, size[k] - 1):
+            idx = np.zeros((nb, nc, 3), np.int64)
+            idx[..., k], idx[..., b], idx[..., c] = side, i, j
+            key = (idx[..., 0] * size[1] + idx[..., 1]) * size[2] + idx[..., 2]
+            p00, p10 = key[:-1, :-1].ravel(), key[1:, :-1].ravel()
+            p11, p01 = key[1:, 1:].ravel(), key[:-1, 1:].ravel()
+            keys.append(key.ravel())
+            tris += [np.column_stack([p00, p10, p11]), np.column_stack([p00, p11, p01])]
+    uniq = np.unique(np.concatenate(keys))
+    tri = np.searchsorted(uniq, np.concatenate(tris))
+    ii, r = np.divmod(uniq, size[1] * size[2])
+    jj, kk = np.divmod(r, size[2])
+    x = np.column_stack([axes[0][ii], axes[1][jj], axes[2][kk]])
+    # Edges: each triangle's three sides, shared sides once.
+    sides = np.sort(np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1), axis=2)
+    ends, inverse = np.unique(sides.reshape(-1, 2), axis=0, return_inverse=True)
+    tri_edges = inverse.reshape(-1, 3)
+    # An edge on a box edge has both ends with two coordinates at the bounds.
+    at = (x == lo) | (x == hi)
+    two = at.sum(axis=1) >= 2
+    same = (at[ends[:, 0]] & at[ends[:, 1]]).sum(axis=1) >= 2
+    on_edge = two[ends[:, 0]] & two[ends[:, 1]] & same
+    return x, ends, tri_edges, on_edge
+
+
+#: Inner lattice lines of the box grid sit at (i + _SHIFT) / cells.
+_SHIFT = (3.0 - np.sqrt(5.0)) / 2.0  # 0.382, irrational
+
+
+def _unit_to_sphere(c0: np.ndarray, R: float) -> Callable[[np.ndarray], np.ndarray]:
+    """Nonzero vectors ``(..., 3)`` to the points of the sphere in their directions."""
+
+    def onto(y: np.ndarray) -> np.ndarray:
+        return c0 + R * (y / np.linalg.norm(y, axis=-1, keepdims=True))
+
+    return onto
+
+
+def _start_at_corners(order: np.ndarray, loop: np.ndarray, corner: np.ndarray) -> np.ndarray:
+    """Each loop's order turned to start at one of its corners, if it has any
+    (so resampling can run from corner to corner)."""
+    if not corner.any():
+        return order
+    order = order.copy()
+    ends = np.cumsum(np.bincount(loop))
+    for s, e in zip(ends - np.bincount(loop), ends, strict=True):
+        at = np.flatnonzero(corner[order[s:e]])
+        if len(at):
+            order[s:e] = np.roll(order[s:e], -int(at[0]))
+    return order
 
 
 #: A fixed rotation with no special axis (rotation vector (0.31, 0.73, 0.19) rad).
@@ -227,12 +343,21 @@ def sphere_grid(h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _arc_roots(surface: ImplicitSurface, p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """The crossing of ``f`` on the arc from ``c0 + R p`` to ``c0 + R q`` (unit p, q)."""
-    c0, R = surface.centre, surface.radius
+    return _edge_roots(surface, p, q, _unit_to_sphere(surface.centre, surface.radius))
+
+
+def _edge_roots(
+    surface: ImplicitSurface,
+    p: np.ndarray,
+    q: np.ndarray,
+    onto: Callable[[np.ndarray], np.ndarray] | None,
+) -> np.ndarray:
+    """The crossing of ``f`` on each grid edge from ``p`` to ``q``: a straight
+    segment, or its image under ``onto`` (the great-circle arc on the sphere)."""
 
     def point(t, px, py, pz, qx, qy, qz):
         x = np.stack([px + t * (qx - px), py + t * (qy - py), pz + t * (qz - pz)], axis=-1)
-        x = x / np.linalg.norm(x, axis=-1, keepdims=True)
-        return c0 + R * x
+        return x if onto is None else onto(x)
 
     def g(t, *args):
         return surface(point(t, *args).reshape(-1, 3)).reshape(np.shape(t))
@@ -247,11 +372,12 @@ def _arc_roots(surface: ImplicitSurface, p: np.ndarray, q: np.ndarray) -> np.nda
     # runs through a grid point): that end is the crossing.
     failed = ~np.isfinite(t)
     if failed.any():
-        fa = np.abs(surface(c0 + R * p[failed]))
-        fb = np.abs(surface(c0 + R * q[failed]))
+        sub = tuple(a[failed] for a in args)
+        fa = np.abs(surface(point(np.zeros(int(failed.sum())), *sub)))
+        fb = np.abs(surface(point(np.ones(int(failed.sum())), *sub)))
         t = t.copy()
         t[failed] = np.where(fa <= fb, 0.0, 1.0)
-        log.debug("boundary curve: %d arc root searches ended at a grid point", int(failed.sum()))
+        log.debug("boundary curve: %d edge root searches ended at a grid point", int(failed.sum()))
     return point(t, *args)
 
 
@@ -287,10 +413,17 @@ def _loop_order(pairs: np.ndarray, label: np.ndarray, n_loops: int, m: int):
     return order, loop
 
 
-def _resample(pts, loop, n_loops, size, distance):
+def _resample(pts, loop, n_loops, size, distance, fixed=None):
     """Points along each closed polyline, at most ``size`` (per point) apart
     (tighter where the turning would put a chord farther than ``distance``
-    from the curve)."""
+    from the curve).
+
+    ``fixed`` marks polyline points kept as samples (corners of the curve):
+    each loop is then resampled from one to the next; a loop with fixed
+    points must start at one. Returns ``(points, loop of each, loop lengths,
+    which points are fixed ones)``.
+    """
+    fixed = np.zeros(len(pts), bool) if fixed is None else fixed
     nxt = np.arange(len(pts)) + 1
     ends = np.cumsum(np.bincount(loop, minlength=n_loops))
     starts = ends - np.bincount(loop, minlength=n_loops)
@@ -302,30 +435,44 @@ def _resample(pts, loop, n_loops, size, distance):
     if distance is not None:
         # Curvature at each polyline vertex: turning angle over the mean
         # length of its two segments; a chord of length L bulges L^2 k / 8.
+        # A corner's turn is not curvature: its arcs end there anyway.
         prv = np.arange(len(pts)) - 1
         prv[starts] = ends - 1
         t_in, t_out = seg[prv], seg
         cos = np.einsum("ij,ij->i", t_in, t_out) / np.maximum(ell[prv] * ell, 1e-300)
+        cos[fixed] = 1.0
         kappa = np.arccos(np.clip(cos, -1.0, 1.0)) / np.maximum(0.5 * (ell[prv] + ell), 1e-300)
         with np.errstate(divide="ignore"):
             spacing = np.minimum(size, np.sqrt(8.0 * distance / np.maximum(kappa, 1e-300)))
-    # Samples per segment: its length over the local spacing, accumulated;
-    # each loop gets an integer number of samples (at least 3).
+    # Arcs: each loop from one fixed point to the next (a whole loop without
+    # any). Samples per segment: its length over the local spacing,
+    # accumulated; each arc gets an integer number of samples, its first
+    # point being its start (at least 3 per loop).
     density = ell / np.minimum(spacing, spacing[nxt])
     cum = np.cumsum(density)
-    base = np.r_[0.0, cum][starts]
-    total = cum[ends - 1] - base
-    count = np.maximum(np.ceil(total * PER_BOUND).astype(np.int64), 3)
-    which = np.repeat(np.arange(n_loops), count)
-    k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-    target = base[which] + total[which] * k / count[which]
-    # Locate each target in its loop's cumulative density.
     before = np.r_[0.0, cum]
+    first = np.zeros(len(pts), bool)
+    first[starts] = True
+    first |= fixed
+    a_start = np.flatnonzero(first)
+    a_end = np.r_[a_start[1:], len(pts)]
+    a_end = np.minimum(a_end, ends[loop[a_start]])
+    arc_loop = loop[a_start]
+    base = before[a_start]
+    total = before[a_end] - base
+    whole = np.bincount(arc_loop, minlength=n_loops)[arc_loop] == 1
+    count = np.maximum(np.ceil(total * PER_BOUND).astype(np.int64), np.where(whole, 3, 1))
+    arc = np.repeat(np.arange(len(a_start)), count)
+    k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    target = base[arc] + total[arc] * k / count[arc]
+    # Locate each target in its arc's cumulative density.
     j = np.searchsorted(cum, target, side="right")
-    j = np.clip(j, starts[which], ends[which] - 1)
+    j = np.clip(j, a_start[arc], a_end[arc] - 1)
     w = (target - before[j]) / np.maximum(density[j], 1e-300)
     points = pts[j] + np.clip(w, 0.0, 1.0)[:, None] * seg[j]
-    return points, which, lengths
+    kept = (k == 0) & fixed[a_start[arc]]
+    points[kept] = pts[a_start[arc[kept]]]
+    return points, arc_loop[arc], lengths, kept
 
 
 #: A refinement point moved onto the curve is kept when it lies farther than
@@ -400,7 +547,11 @@ def guard_boundary(
 
 
 def project_onto_curve(surface: ImplicitSurface, x: np.ndarray) -> np.ndarray:
-    """Newton steps along the sphere onto ``f = 0``, then exactly onto the sphere.
+    """Newton steps along the clipping surface onto ``f = 0``.
+
+    On the sphere: steps along the sphere, then exactly onto it. In a clip
+    box: each point moves to its nearest face and steps within that face
+    (clamped to the box).
 
     Parameters
     ----------
@@ -409,9 +560,12 @@ def project_onto_curve(surface: ImplicitSurface, x: np.ndarray) -> np.ndarray:
 
     Returns
     -------
-    (k, 3) points on the sphere (to rounding), with ``f`` near 0 where the
-    steps converged.
+    (k, 3) points on the clipping surface (to rounding), with ``f`` near 0
+    where the steps converged.
     """
+    box = clip_box(surface)
+    if box is not None:
+        return _project_in_face(surface, box, x)
     c0, R = surface.centre, surface.radius
 
     def onto_sphere(y):
@@ -424,12 +578,45 @@ def project_onto_curve(surface: ImplicitSurface, x: np.ndarray) -> np.ndarray:
         n = (x - c0) / R
         g = surface.grad(x)
         gt = g - np.einsum("ij,ij->i", g, n)[:, None] * n
-        gn2 = np.einsum("ij,ij->i", gt, gt)
-        moving = gn2 > 0
-        step = np.zeros_like(x)
-        step[moving] = -(f[moving] / gn2[moving])[:, None] * gt[moving]
-        x, step_len = damped_step(x, step, 0.05 * R)
+        x, done = _newton_step(x, f, gt, 0.05 * R)
         x = onto_sphere(x)
-        if np.all(step_len < 1e-13 * R):
+        if done:
             break
     return x
+
+
+def _project_in_face(surface: ImplicitSurface, box: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Newton steps onto ``f = 0`` within the nearest face of the box."""
+    lo, hi = box
+    R = surface.radius
+    x = np.clip(np.asarray(x, dtype=np.float64).reshape(-1, 3), lo, hi)
+    rows = np.arange(len(x))
+    k = np.argmin(np.concatenate([x - lo, hi - x], axis=1), axis=1)
+    axis = k % 3
+    plane = np.where(k < 3, lo[axis], hi[axis])
+    x[rows, axis] = plane
+    for _ in range(PROJECT_ITERATIONS):
+        if len(x) == 0:
+            break
+        f = surface(x)
+        g = surface.grad(x)
+        g[rows, axis] = 0.0  # the gradient within the face
+        x, done = _newton_step(x, f, g, 0.05 * R)
+        x = np.clip(x, lo, hi)
+        x[rows, axis] = plane
+        if done:
+            break
+    return x
+
+
+def _newton_step(
+    x: np.ndarray, f: np.ndarray, g: np.ndarray, cap: float
+) -> tuple[np.ndarray, bool]:
+    """One damped Newton step towards ``f = 0`` along ``g``; True when every
+    step was negligible (below 1e-13 of ``cap / 0.05``)."""
+    gn2 = np.einsum("ij,ij->i", g, g)
+    moving = gn2 > 0
+    step = np.zeros_like(x)
+    step[moving] = -(f[moving] / gn2[moving])[:, None] * g[moving]
+    x, step_len = damped_step(x, step, cap)
+    return x, bool(np.all(step_len < 1e-13 * cap / 0.05))

@@ -22,6 +22,7 @@ from .._newton import damped_step
 from .._tol import SHOT_ATOL
 from .._vectors import row_norms
 from ..surfaces.oracle import ImplicitSurface
+from .domain import clip_box, depth
 from .roots import SegmentSamples, line_crossings
 
 log = logging.getLogger("rdmesh")
@@ -73,9 +74,9 @@ def grid_scan(
         Target distance between kept crossings on large components;
         default three grid cells.
     clipped : bool
-        The surface may cross the bounding sphere
+        The surface may cross the bounding sphere, or its clip box
         (``topology="manifold-with-boundary"``): no sphere check, and only
-        crossings inside the ball are kept.
+        crossings inside the ball (the box) are kept.
 
     Returns
     -------
@@ -142,11 +143,12 @@ def grid_scan(
     cr = line_crossings(surface, origin, direction, samples, xatol=SHOT_ATOL * R)
     points, cell = cr.point, cell[cr.segment]
     if clipped:
-        within = row_norms(points - c0) < R
+        within = depth(surface, points) > 0
         points, cell = points[within], cell[within]
         if len(points) == 0:
+            where = "sphere" if clip_box(surface) is None else "clip box"
             raise EmptySurfaceError(
-                "f changes sign only outside the bounding sphere at grid spacing "
+                f"f changes sign only outside the bounding {where} at grid spacing "
                 f"{h:.3g}: no surface found inside it"
             )
     # Connected bands of grid cells that contain the surface.

@@ -39,7 +39,11 @@ class ImplicitSurface:
     Notes
     -----
     Every call of ``f`` is checked: it must return ``N`` finite values.
-    ``evaluations`` counts the points evaluated so far.
+    ``evaluations`` counts the points evaluated so far. ``clip_box`` (None
+    here) is set by surfaces meshed only inside an axis-aligned box within
+    the sphere, such as ``VolumeSurface(border="clipped")``: a ``(2, 3)``
+    array of the lowest and highest corners; they need
+    ``topology="manifold-with-boundary"``.
     """
 
     f: ArrayFunction
@@ -56,6 +60,8 @@ class ImplicitSurface:
         self.centre, self.radius = sphere(self.bounding_sphere)
         self._lock = threading.Lock()
         self.bounding_sphere = (self.centre, self.radius)
+        #: The box the mesh is clipped to (None: the bounding ball only).
+        self.clip_box: np.ndarray | None = None
 
     @classmethod
     def from_expression(

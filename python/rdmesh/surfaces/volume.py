@@ -28,7 +28,7 @@ log = logging.getLogger("rdmesh")
 
 INSIDE = ("greater", "less")
 INTERPOLATIONS = ("cubic", "linear")
-BORDERS = ("closed",)
+BORDERS = ("closed", "clipped")
 
 #: Smallest number of samples per axis for each interpolation.
 MIN_SAMPLES = {"cubic": 4, "linear": 2}
@@ -229,11 +229,17 @@ class VolumeSurface(ImplicitSurface):
         continuously differentiable, with its exact gradient. "linear":
         trilinear interpolation, as CGAL's gray-level images; continuous, its
         gradient jumps across voxel faces.
-    border : {"closed"}, default "closed"
+    border : {"closed", "clipped"}, default "closed"
         How the isosurface ends at the faces of the box: "closed" closes it
         by the faces, as if everything outside the box were outside, so the
-        mesh is watertight. Clipped surfaces (with a boundary) are not
-        supported yet.
+        mesh is watertight. "clipped" cuts it there: ``f`` is the volume's
+        alone, ``clip_box`` is the box, and :func:`rdmesh.mesh_surface`
+        meshes the part inside the box with
+        ``topology="manifold-with-boundary"`` (its default for such a
+        surface; other topologies, the topological-ball method and certify
+        raise ValueError). The boundary follows the curve where the
+        isosurface meets the faces, with a vertex where it crosses a box
+        edge (see the README, "Volumes").
     name : str, default "volume"
         A label for logs and reports.
 
@@ -262,7 +268,7 @@ class VolumeSurface(ImplicitSurface):
 
     Notes
     -----
-    ``f`` is ``max(f_volume, d_box)``: ``f_volume`` is the interpolated
+    With ``border="closed"``, ``f`` is ``max(f_volume, d_box)``: ``f_volume`` is the interpolated
     ``(isovalue - v) / value_scale`` (sign per ``inside``), ``d_box`` the
     signed distance to the box (negative inside). It is positive outside the
     box, so on and outside the bounding sphere (the sphere about the box,
@@ -306,12 +312,7 @@ class VolumeSurface(ImplicitSurface):
     ) -> None:
         choice("inside", inside, INSIDE)
         choice("interpolation", interpolation, INTERPOLATIONS)
-        if border != "closed":
-            raise ValueError(
-                f"border {border!r} is not supported yet: only 'closed' (the surface is "
-                "closed by the faces of the volume's box); clipped borders need the "
-                "manifold-with-boundary work"
-            )
+        choice("border", border, BORDERS)
         data = _volume(volume, interpolation)
         self.spacing = _three("spacing", spacing, positive=True)
         self.origin = _three("origin", origin, positive=False)
@@ -356,7 +357,13 @@ class VolumeSurface(ImplicitSurface):
             interpolation,
             self.value_scale,
         )
-        super().__init__(self._f, (centre, radius), gradient=self._gradient, name=name)
+        if border == "clipped":
+            super().__init__(
+                self.f_volume, (centre, radius), gradient=self._volume_gradient, name=name
+            )
+            self.clip_box = self.box.copy()
+        else:
+            super().__init__(self._f, (centre, radius), gradient=self._gradient, name=name)
 
     def __repr__(self) -> str:
         return (
@@ -418,6 +425,12 @@ class VolumeSurface(ImplicitSurface):
 
     def _f(self, points: np.ndarray) -> np.ndarray:
         return np.maximum(self.f_volume(points), self.box_distance(points))
+
+    def _volume_gradient(self, points: np.ndarray) -> np.ndarray:
+        """Gradient of :meth:`f_volume` (the clipped border's ``f``)."""
+        _, gv = self.value_gradients(points)
+        gv *= -self._sign / self.value_scale
+        return gv
 
     def _gradient(self, points: np.ndarray) -> np.ndarray:
         v, gv = self.value_gradients(points)

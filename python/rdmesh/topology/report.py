@@ -194,14 +194,18 @@ def topology_report(
 
 
 def _boundary(curve: BoundaryCurve, chi: list[int], loops: list[int]) -> dict[str, Any]:
-    """The boundary of a clipped mesh against the curve traced on the sphere.
+    """The boundary of a clipped mesh against the curve traced on the sphere
+    (or the clip box's faces).
 
     Each component with ``b`` boundary loops has ``chi = 2 - 2 g - b``: the
     genus ``g`` it implies must be a whole number at least 0.
     """
     genus = [(2 - c - b) / 2 for c, b in zip(chi, loops, strict=True)]
     consistent = all(g >= 0 and float(g).is_integer() for g in genus)
+    where = "the sphere" if curve.domain == "sphere" else "the box faces"
     return {
+        "domain": curve.domain,
+        "edge_crossings": len(curve.corners),
         "curve_loops": curve.n_loops,
         "mesh_loops": int(sum(loops)),
         "loops_match": int(sum(loops)) == curve.n_loops,
@@ -209,7 +213,7 @@ def _boundary(curve: BoundaryCurve, chi: list[int], loops: list[int]) -> dict[st
         "curve_spacing": curve.size,
         "genus": genus,
         "euler_consistent": consistent,
-        "basis": "sampled: the curve f = 0 on the sphere was traced on a point grid "
+        "basis": f"sampled: the curve f = 0 on {where} was traced on a point grid "
         f"of spacing {curve.spacing:.3g}; loops smaller than that can be missed",
     }
 
@@ -312,10 +316,14 @@ def _statement(rep: dict[str, Any]) -> str:
     lines = []
     bd = rep.get("boundary")
     if bd is not None:
+        box = bd.get("domain") == "box"
         lines.append(
-            "The surface leaves the bounding sphere (topology='manifold-with-boundary'): "
+            f"The surface leaves the {'clip box' if box else 'bounding sphere'} "
+            "(topology='manifold-with-boundary'): "
             f"the mesh is the part inside, with {bd['mesh_loops']} boundary loops "
-            f"({bd['curve_loops']} traced on the sphere); the topological-ball tests and "
+            f"({bd['curve_loops']} traced on the {'box faces' if box else 'sphere'}"
+            + (f", crossing box edges at {bd['edge_crossings']} points" if box else "")
+            + "); the topological-ball tests and "
             "certificates assume a closed surface inside the sphere, so nothing is "
             "certified (the boundary edges, with one triangle each, fail the Voronoi-facet "
             "test by design)."
