@@ -1,14 +1,11 @@
 #include "box_proofs.hpp"
 
 #include <algorithm>
-#include <atomic>
-#include <exception>
-#include <mutex>
-#include <cfloat>
 #include <cmath>
-#include <thread>
+#include <vector>
 
 #include "cell_boxes.hpp"
+#include "on_cores.hpp"
 
 namespace rdmesh {
 namespace {
@@ -29,24 +26,6 @@ bool meets_plane(const Box& b, const double* plane) {
   const double off = plane[3];
   const double slack = 1e-12 * (std::fabs(a) + std::fabs(c) + std::fabs(off)) + 1e-300;
   return a <= off + slack && c >= off - slack;
-}
-
-// Whether G . d keeps one sign over the gradient box G (intervals.dot_bounds:
-// components with d == 0 add nothing, a non-finite bound settles nothing, and
-// a few ulps of slack cover the rounding of three products and two sums).
-bool settled(const BoxBounds& g, const double* d) {
-  double lo = 0.0, hi = 0.0, mag = 0.0;
-  for (int k = 0; k < 3; ++k) {
-    if (d[k] == 0.0) continue;
-    const double p1 = g.glo[k] * d[k], p2 = g.ghi[k] * d[k];
-    const double l = p1 < p2 ? p1 : p2, h = p1 < p2 ? p2 : p1;
-    if (!std::isfinite(l) || !std::isfinite(h)) return false;
-    lo += l;
-    hi += h;
-    mag += std::fabs(l) > std::fabs(h) ? std::fabs(l) : std::fabs(h);
-  }
-  const double slack = 8 * DBL_EPSILON * mag + DBL_MIN;
-  return lo - slack > 0 || hi + slack < 0;
 }
 
 void prove_owner(std::size_t i, const BoxProofInput& in, BoxEvaluator& eval,
@@ -73,7 +52,7 @@ void prove_owner(std::size_t i, const BoxProofInput& in, BoxEvaluator& eval,
     // the centre) only where it must decide.
     eval.evaluate(box.lo, box.hi, b);
     ++count;
-    if (!b.undefined && settled(b, d)) continue;
+    if (!b.undefined && gradient_keeps_sign(b, d)) continue;
     if (!(b.lo <= 0 && b.hi >= 0)) continue;
     eval.tighten(box.lo, box.hi, b);
     if (!(b.lo <= 0 && b.hi >= 0)) continue;
@@ -112,31 +91,16 @@ BoxProofResult prove_boxes(const std::vector<IntervalInstruction>& program,
   out.lo.assign(3 * in.n, 0.0);
   out.hi.assign(3 * in.n, 0.0);
   out.boxes.assign(in.n, 0);
-  // Owners take very different work: threads take the next owner as they go.
-  // Each owner writes its own rows, so the result does not depend on the split.
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr error;
-  std::mutex error_lock;
-  const auto work = [&]() {
-    try {
-      BoxEvaluator eval(program, true, false);
-      std::vector<Box> stack;
-      std::vector<CellPlane> planes;
-      for (std::size_t i = next++; i < in.n; i = next++)
-        prove_owner(i, in, eval, stack, planes, out);
-    } catch (...) {  // e.g. bad_alloc: rethrown below, never out of a thread
-      const std::lock_guard<std::mutex> hold(error_lock);
-      if (!error) error = std::current_exception();
-      next = in.n;
-    }
+  // Owners take very different work; each writes only its own rows.
+  struct Worker {
+    BoxEvaluator eval;
+    std::vector<Box> stack;
+    std::vector<CellPlane> planes;
   };
-  const std::size_t cores = std::max(1u, std::thread::hardware_concurrency());
-  const std::size_t parts = std::max<std::size_t>(1, std::min<std::size_t>(cores, in.n / 8));
-  std::vector<std::thread> threads;
-  for (std::size_t t = 1; t < parts; ++t) threads.emplace_back(work);
-  work();
-  for (auto& t : threads) t.join();
-  if (error) std::rethrow_exception(error);
+  for_each_on_cores(
+      in.n, [&] { return Worker{BoxEvaluator(program, true, false), {}, {}}; },
+      [&](Worker& w, std::size_t i) { prove_owner(i, in, w.eval, w.stack, w.planes, out); },
+      std::max<std::size_t>(1, in.n / 8));
   return out;
 }
 

@@ -8,6 +8,8 @@
 // -ffp-contract=off: a fused multiply-add would change what was rounded.
 #pragma once
 
+#include <cfloat>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -52,6 +54,25 @@ struct BoxBounds {
   double lo, hi, glo[3], ghi[3];
   bool undefined;
 };
+
+// Whether grad f . d keeps one sign over the box's gradient bounds, as
+// rdmesh.surfaces.intervals.dot_bounds decides it: components with d == 0 add
+// nothing, a non-finite bound settles nothing, and a few ulps of slack cover
+// the rounding of three products and two sums.
+inline bool gradient_keeps_sign(const BoxBounds& g, const double* d) {
+  double lo = 0.0, hi = 0.0, mag = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    if (d[k] == 0.0) continue;
+    const double p1 = g.glo[k] * d[k], p2 = g.ghi[k] * d[k];
+    const double l = p1 < p2 ? p1 : p2, h = p1 < p2 ? p2 : p1;
+    if (!std::isfinite(l) || !std::isfinite(h)) return false;
+    lo += l;
+    hi += h;
+    mag += std::fabs(l) > std::fabs(h) ? std::fabs(l) : std::fabs(h);
+  }
+  const double slack = 8 * DBL_EPSILON * mag + DBL_MIN;
+  return lo - slack > 0 || hi + slack < 0;
+}
 
 // Bounds one box at a time with machines of its own (one per thread): what
 // evaluate_intervals does for each box.  The program must have been checked.

@@ -1,12 +1,9 @@
 #include "segment_roots.hpp"
 
 #include <algorithm>
-#include <atomic>
-#include <cfloat>
 #include <cmath>
-#include <exception>
-#include <mutex>
-#include <thread>
+
+#include "on_cores.hpp"
 
 namespace rdmesh {
 namespace {
@@ -19,23 +16,6 @@ struct Piece {
 int sign_of(const BoxBounds& e) {
   if (e.undefined) return 0;
   return e.lo > 0 ? 1 : (e.hi < 0 ? -1 : 0);
-}
-
-// grad f . d keeps one sign over the box (intervals.dot_bounds, as in
-// box_proofs.cpp).
-bool monotone(const BoxBounds& g, const double* d) {
-  double lo = 0.0, hi = 0.0, mag = 0.0;
-  for (int k = 0; k < 3; ++k) {
-    if (d[k] == 0.0) continue;
-    const double p1 = g.glo[k] * d[k], p2 = g.ghi[k] * d[k];
-    const double l = p1 < p2 ? p1 : p2, h = p1 < p2 ? p2 : p1;
-    if (!std::isfinite(l) || !std::isfinite(h)) return false;
-    lo += l;
-    hi += h;
-    mag += std::fabs(l) > std::fabs(h) ? std::fabs(l) : std::fabs(h);
-  }
-  const double slack = 8 * DBL_EPSILON * mag + DBL_MIN;
-  return lo - slack > 0 || hi + slack < 0;
 }
 
 // Segments [begin, end): results in `out`, in segment order.
@@ -71,7 +51,7 @@ void isolate_range(const double* A, const double* B, std::size_t begin, std::siz
       if (!(enc.lo <= 0 && enc.hi >= 0)) continue;
       piece.tighten(lo, hi, enc);  // the mean-value form, only where it decides
       if (!(enc.lo <= 0 && enc.hi >= 0)) continue;
-      if (!enc.undefined && monotone(enc, d)) {
+      if (!enc.undefined && gradient_keeps_sign(enc, d)) {
         point.evaluate(p0, p0, e0);
         point.evaluate(p1, p1, e1);
         out.boxes += 2;
@@ -120,28 +100,16 @@ SegmentRoots isolate_segment_roots(const std::vector<IntervalInstruction>& progr
   check_interval_program(program);
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   std::vector<SegmentRoots> parts(chunks);
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr error;
-  std::mutex error_lock;
-  const auto work = [&]() {
-    try {
-      BoxEvaluator piece(program, true, false), point(program, false, false);
-      for (std::size_t c = next++; c < chunks; c = next++)
-        isolate_range(a, b, c * kChunk, std::min(n, (c + 1) * kChunk), min_length, budget,
-                      piece, point, parts[c]);
-    } catch (...) {  // rethrown below, never out of a thread
-      const std::lock_guard<std::mutex> hold(error_lock);
-      if (!error) error = std::current_exception();
-      next = chunks;
-    }
+  struct Worker {
+    BoxEvaluator piece, point;
   };
-  const std::size_t cores = std::max(1u, std::thread::hardware_concurrency());
-  const std::size_t threads_wanted = std::min<std::size_t>(cores, chunks);
-  std::vector<std::thread> threads;
-  for (std::size_t t = 1; t < threads_wanted; ++t) threads.emplace_back(work);
-  work();
-  for (auto& t : threads) t.join();
-  if (error) std::rethrow_exception(error);
+  for_each_on_cores(
+      chunks,
+      [&] { return Worker{BoxEvaluator(program, true, false), BoxEvaluator(program, false, false)}; },
+      [&](Worker& w, std::size_t c) {
+        isolate_range(a, b, c * kChunk, std::min(n, (c + 1) * kChunk), min_length, budget,
+                      w.piece, w.point, parts[c]);
+      });
   // Chunks in order: segments in order, and pieces by t0 within a segment
   // (depth first, lower half first).
   SegmentRoots out;

@@ -25,6 +25,13 @@ def edge_counts(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return edges, u_count, d_count
 
 
+def boundary_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The edges in exactly one face ``(B, 2)`` (each ``i < j``), and their vertex ids."""
+    edges, count, _ = edge_counts(faces)
+    b = edges[count == 1]
+    return b, np.unique(b)
+
+
 def vertex_link_cycles(faces: np.ndarray, n_vertices: int) -> np.ndarray:
     """For each vertex, the number of cycles in its link, or -1 if the link is
     not a disjoint union of cycles (some link vertex has degree != 2).

@@ -7,18 +7,10 @@ import pytest
 import rdmesh
 import trimesh
 from clipped_surfaces import GYROID, cylinder, plane, torus_off_centre
+from meshcheck import boundary_edges
 from rdmesh.cli import main
 from rdmesh.sampling.boundary import boundary_curve
-from rdmesh.topology.complex import boundary_loops, complex_status
-
-
-def _boundary(m: rdmesh.SurfaceMesh) -> tuple[np.ndarray, np.ndarray]:
-    """The boundary edges (pairs of vertex ids) and the boundary vertex ids."""
-    n = len(m.vertices)
-    st = complex_status(m.faces, n)
-    key = st.edge_key[st.edge_count == 1]
-    edges = np.column_stack([key // n, key % n])
-    return edges, np.unique(edges)
+from rdmesh.topology.complex import boundary_loops
 
 
 def _on_sphere(m: rdmesh.SurfaceMesh, centre, radius) -> np.ndarray:
@@ -33,7 +25,7 @@ def _check_clipped(m, f, centre, radius, angle_bound=30.0):
     assert m.complete
     assert m.is_manifold_with_boundary()
     assert not m.is_closed_manifold()
-    _, bv = _boundary(m)
+    _, bv = boundary_edges(m.faces)
     assert len(bv) > 0
     assert _on_sphere(m, centre, radius)[bv].all()
     assert np.abs(f(m.vertices[bv])).max() <= 1e-9 * radius
@@ -65,7 +57,7 @@ def test_plane_through_the_sphere_is_a_disk(disk):
     assert topo["boundary_loops"] == [1]
     assert topo["manifold_with_boundary"] is True
     # The boundary polygon is inscribed in the circle: a little shorter.
-    edges, _ = _boundary(m)
+    edges, _ = boundary_edges(m.faces)
     length = np.linalg.norm(m.vertices[edges[:, 0]] - m.vertices[edges[:, 1]], axis=1).sum()
     d = 0.3 / np.sqrt(1.01)
     circle = 2 * np.pi * np.sqrt(1 - d * d)
@@ -95,7 +87,7 @@ def test_cylinder_longer_than_the_domain_is_an_annulus():
     topo = m.topology()
     assert (topo["components"], topo["euler"], topo["boundary_loops"]) == (1, [0], [2])
     # Two circles of radius 0.5 at z = +-sqrt(0.75).
-    _, bv = _boundary(m)
+    _, bv = boundary_edges(m.faces)
     z = m.vertices[bv, 2]
     assert np.allclose(np.abs(z), np.sqrt(0.75), atol=1e-9)
     assert (z > 0).any() and (z < 0).any()
@@ -208,7 +200,7 @@ def test_boundary_follows_the_curve_within_the_distance_bound():
         s, topology="manifold-with-boundary", radius_bound=0.15, distance_bound=bound
     )
     _check_clipped(m, cylinder, (0, 0, 0), 1.0)
-    edges, _ = _boundary(m)
+    edges, _ = boundary_edges(m.faces)
     mid = 0.5 * (m.vertices[edges[:, 0]] + m.vertices[edges[:, 1]])
     # The curve point nearest each midpoint: on the same circle z = const.
     z = np.sign(mid[:, 2]) * np.sqrt(0.75)
@@ -239,7 +231,7 @@ def test_sizing_field_sets_the_boundary_spacing():
 
     m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=field)
     _check_clipped(m, cylinder, (0, 0, 0), 1.0)
-    edges, _ = _boundary(m)
+    edges, _ = boundary_edges(m.faces)
     a, b = m.vertices[edges[:, 0]], m.vertices[edges[:, 1]]
     length = np.linalg.norm(a - b, axis=1)
     assert (length <= field(0.5 * (a + b)) * (1 + 1e-6)).all()

@@ -13,22 +13,13 @@ import rdmesh
 import volumes
 from clipped_volumes import HI, LO, TORUS_BOX, corner_sphere, cylinder, plane, torus
 from clipped_volumes import volume as _volume
+from meshcheck import boundary_edges
 from rdmesh import core
 from rdmesh.sampling.boundary import box_grid
-from rdmesh.topology.complex import complex_status
 from scipy.optimize import brentq
 from test_cli import load, run
 
 SIZE, DISTANCE = 0.1, 0.01
-
-
-def _boundary(m: rdmesh.SurfaceMesh) -> tuple[np.ndarray, np.ndarray]:
-    """The boundary edges (vertex id pairs) and the boundary vertex ids."""
-    n = len(m.vertices)
-    st = complex_status(m.faces, n)
-    key = st.edge_key[st.edge_count == 1]
-    edges = np.column_stack([key // n, key % n])
-    return edges, np.unique(edges)
 
 
 def _faces_of(x: np.ndarray, box: np.ndarray) -> np.ndarray:
@@ -51,7 +42,7 @@ def _check(s: rdmesh.VolumeSurface, m: rdmesh.SurfaceMesh, loops: int, chi: int)
     v = m.vertices
     assert np.all(v >= box[0] - 1e-12) and np.all(v <= box[1] + 1e-12)
     assert np.abs(s(v)).max() <= 1e-6
-    edges, bv = _boundary(m)
+    edges, bv = boundary_edges(m.faces)
     on = _faces_of(v, box)
     # Boundary vertices: on a box face (to rounding) and on the surface (to
     # the projection's tolerance).
@@ -96,7 +87,7 @@ def test_a_plane_through_the_box_is_a_disk_with_its_edge_crossings():
     _check(s, m, loops=1, chi=1)
     # The plane crosses the 4 vertical box edges: a boundary vertex at each,
     # where f = 0 on that edge.
-    _, bv = _boundary(m)
+    _, bv = boundary_edges(m.faces)
     assert m.report["boundary"]["edge_crossings"] == 4
     for x, y in [(-1, -1), (-1, 1), (1, -1), (1, 1)]:
         z = brentq(lambda t, x=x, y=y: float(s(np.array([[x, y, t]]))[0]), -1.0, 1.0)
@@ -104,7 +95,7 @@ def test_a_plane_through_the_box_is_a_disk_with_its_edge_crossings():
         assert d <= 1e-9
     # The tilted plane meets the 4 side faces along straight segments: the
     # boundary is their polygon (length of the 4 segments).
-    edges, _ = _boundary(m)
+    edges, _ = boundary_edges(m.faces)
     length = np.linalg.norm(m.vertices[edges[:, 0]] - m.vertices[edges[:, 1]], axis=1).sum()
     assert length == pytest.approx(2 * np.hypot(2, 0.2) + 2 * 2, rel=1e-6)
 
@@ -115,7 +106,7 @@ def test_a_cylinder_longer_than_the_box_is_an_annulus():
     _check(s, m, loops=2, chi=0)
     assert m.report["boundary"]["edge_crossings"] == 0
     # Its two boundary loops lie on the top and bottom faces.
-    _, bv = _boundary(m)
+    _, bv = boundary_edges(m.faces)
     assert np.allclose(np.abs(m.vertices[bv, 2]), 1.0, atol=1e-12)
 
 
@@ -124,7 +115,7 @@ def test_a_sphere_cut_by_a_box_corner_has_a_vertex_at_each_edge_crossing():
     m = _mesh(s)
     _check(s, m, loops=1, chi=1)
     assert m.report["boundary"]["edge_crossings"] == 3
-    _, bv = _boundary(m)
+    _, bv = boundary_edges(m.faces)
     for axis in range(3):
 
         def on_edge(t, axis=axis):
@@ -143,7 +134,7 @@ def test_a_torus_cut_by_one_box_face_keeps_its_handle():
     s = _volume(torus, *TORUS_BOX, n=32)
     m = _mesh(s)
     _check(s, m, loops=1, chi=-1)
-    _, bv = _boundary(m)
+    _, bv = boundary_edges(m.faces)
     assert np.allclose(m.vertices[bv, 0], 0.7, atol=1e-12)
     assert m.report["boundary"]["genus"] == [1.0]
 
