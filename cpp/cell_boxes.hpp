@@ -23,13 +23,17 @@ void cell_planes(std::int64_t p, std::int64_t skip, const double* points,
                  const std::int64_t* offsets, const std::int64_t* neighbour,
                  std::vector<CellPlane>& out);
 
+// Whether the box [L, H] lies wholly beyond the plane.
+inline bool box_beyond(const double* L, const double* H, const CellPlane& c) {
+  double a = 0.0;
+  for (int k = 0; k < 3; ++k) a += (c.w[k] > 0 ? L[k] : H[k]) * c.w[k];
+  return a > c.limit;
+}
+
 // Whether the box [L, H] lies wholly beyond one of the planes.
 inline bool box_beyond(const double* L, const double* H, const std::vector<CellPlane>& planes) {
-  for (const CellPlane& c : planes) {
-    double a = 0.0;
-    for (int k = 0; k < 3; ++k) a += (c.w[k] > 0 ? L[k] : H[k]) * c.w[k];
-    if (a > c.limit) return true;
-  }
+  for (const CellPlane& c : planes)
+    if (box_beyond(L, H, c)) return true;
   return false;
 }
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numpy as np
+
 from ._validate import choice, integer, positive
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria, Sizing
@@ -235,5 +237,12 @@ def _topology(surface: ImplicitSurface, topology: str | None, method: str) -> st
             f"topology {topology!r} cannot mesh {surface.name!r}, which is clipped to a box: "
             "its mesh has a boundary on the box faces; use topology='manifold-with-boundary' "
             "(the default for it), or border='closed' for a closed surface"
+        )
+    # The boundary curve is traced on the box faces: all of them in the ball.
+    box = np.asarray(surface.clip_box, dtype=np.float64)
+    corners = np.stack(np.meshgrid(*box.T, indexing="ij"), axis=-1).reshape(-1, 3)
+    if np.linalg.norm(corners - surface.centre, axis=1).max() >= surface.radius:
+        raise ValueError(
+            f"the clip box {box.tolist()} of {surface.name!r} must lie inside its bounding sphere"
         )
     return topology

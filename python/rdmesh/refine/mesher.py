@@ -100,19 +100,7 @@ class Mesher:
         self.timer = PhaseTimer()
         self.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
         box = clip_box(surface)
-        if box is not None:
-            if topology != "manifold-with-boundary":
-                raise ValueError(
-                    f"{surface.name!r} is clipped to a box (clip_box is set): it needs "
-                    f"topology='manifold-with-boundary', got {topology!r}"
-                )
-            # The boundary curve is traced on the box faces: all of them in the ball.
-            corners = np.stack(np.meshgrid(*box.T, indexing="ij"), axis=-1).reshape(-1, 3)
-            if np.linalg.norm(corners - surface.centre, axis=1).max() >= surface.radius:
-                raise ValueError(
-                    f"the clip box {box.tolist()} of {surface.name!r} must lie inside its "
-                    "bounding sphere"
-                )
+        if box is not None:  # checked by mesh_surface: inside the ball, with a boundary
             self.rdt.set_clip_box(box[0], box[1])
         self.samples = Samples(self.rdt)
         self.memo = LoopMemo()
