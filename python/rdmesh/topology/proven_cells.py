@@ -219,7 +219,7 @@ def _prove(
     (normal and offset; facets only) or wholly outside the Voronoi cell of
     ``cell[i]`` (leaving out neighbour ``skip[i]``), or when ``0`` is not in
     the bounds of ``f``; it is settled when ``grad f . direction[i]`` keeps
-    one sign. An owner with a piece neither at its floor is a violation.
+    one sign. An owner is a violation when a piece at its floor is neither.
     """
     expr = surface.f
     if not isinstance(expr, Expression):
