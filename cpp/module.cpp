@@ -575,6 +575,18 @@ PYBIND11_MODULE(_rdt, m) {
           "the polygon edge from vertex j to j+1 (cyclic), -1 for a dummy). "
           "Raises ValueError for ids out of range or pairs that are not edges.")
       .def(
+          "voronoi_facet_boxes",
+          [](RestrictedDelaunay& self) {
+            std::vector<std::int64_t> edges;
+            std::vector<double> boxes;
+            locked(self, [&] { self.voronoi_facet_boxes(edges, boxes); });
+            const auto m = static_cast<py::ssize_t>(edges.size() / 2);
+            return py::make_tuple(to_numpy(edges, {m, 2}), to_numpy(boxes, {m, 2, 3}));
+          },
+          "Every Delaunay edge between samples (m, 2), as delaunay_edges() gives them, "
+          "and the bounding box (m, 2, 3) (lo, hi) of its Voronoi facet: the extremes "
+          "of the circumcentres of the cells around the edge.")
+      .def(
           "voronoi_cell_boxes",
           [](RestrictedDelaunay& self, const IdArray& ids) {
             if (ids.ndim() != 1) throw std::invalid_argument("ids must have shape (k,)");

@@ -175,6 +175,12 @@ class RestrictedDelaunay {
   // cells through their end_idx/end_stamp fields and caches circumcentres.
   VoronoiFacets voronoi_facets(const std::int64_t* edges, std::size_t m);
 
+  // Every Delaunay edge between samples (sorted id pairs, as delaunay_edges
+  // gives them) and the bounding box of its Voronoi facet, 6 doubles per edge
+  // (lo then hi): the extremes of the circumcentres of the cells around it.
+  // Not const: it caches circumcentres.
+  void voronoi_facet_boxes(std::vector<std::int64_t>& edges, std::vector<double>& boxes);
+
   // Delaunay edges between samples, as sorted id pairs (p < q) in increasing
   // order: those of the cells incident to the given samples, or every such
   // edge when ids is null.  A Voronoi facet changes only when a cell around

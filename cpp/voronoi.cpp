@@ -2,6 +2,9 @@
 // the topological-ball facet tests.  Geometry and bookkeeping only: which
 // facets to test, and how, is Python's business.
 #include <algorithm>
+#include <array>
+#include <cstdint>
+#include <utility>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -120,46 +123,98 @@ VoronoiFacets RestrictedDelaunay::voronoi_facets(const std::int64_t* edges,
   return out;
 }
 
+void RestrictedDelaunay::voronoi_facet_boxes(std::vector<std::int64_t>& edges,
+                                             std::vector<double>& boxes) {
+  // One pass over the cells: each adds its circumcentre to the boxes of its
+  // edges between samples (keys p << 32 | q, p < q), then the entries are
+  // grouped by edge.  Far cheaper than circulating around every edge.
+  if (samples_.size() >> 32) throw std::length_error("more than 2**32 samples");
+  std::vector<std::array<double, 3>> centre;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> entry;
+  entry.reserve(6 * dt_.number_of_finite_cells());
+  std::uint64_t key[6];
+  for (auto c = dt_.all_cells_begin(); c != dt_.all_cells_end(); ++c) {
+    int n_keys = 0;
+    for (int a = 0; a < 4; ++a) {
+      Vertex_handle va = c->vertex(a);
+      if (dt_.is_infinite(va) || is_dummy(va)) continue;
+      for (int b = a + 1; b < 4; ++b) {
+        Vertex_handle vb = c->vertex(b);
+        if (dt_.is_infinite(vb) || is_dummy(vb)) continue;
+        std::uint64_t x = static_cast<std::uint64_t>(va->info().id);
+        std::uint64_t y = static_cast<std::uint64_t>(vb->info().id);
+        if (x > y) std::swap(x, y);
+        key[n_keys++] = x << 32 | y;
+      }
+    }
+    if (n_keys == 0) continue;
+    // Dummies surround the samples, so no edge between samples is on the
+    // hull; an infinite cell here means the triangulation is broken.
+    if (dt_.is_infinite(c))
+      throw std::runtime_error("a Delaunay edge between samples has an infinite incident cell");
+    const auto index = static_cast<std::uint32_t>(centre.size());
+    centre.push_back(circumcentre(c));
+    for (int k = 0; k < n_keys; ++k) entry.emplace_back(key[k], index);
+  }
+  std::sort(entry.begin(), entry.end());
+  const double inf = std::numeric_limits<double>::infinity();
+  edges.clear();
+  boxes.clear();
+  for (std::size_t g = 0; g < entry.size();) {
+    const std::uint64_t k = entry[g].first;
+    edges.push_back(static_cast<std::int64_t>(k >> 32));
+    edges.push_back(static_cast<std::int64_t>(k & 0xffffffffULL));
+    double box[6] = {inf, inf, inf, -inf, -inf, -inf};
+    for (; g < entry.size() && entry[g].first == k; ++g) {
+      const auto& cc = centre[entry[g].second];
+      for (int d = 0; d < 3; ++d) {
+        box[d] = std::min(box[d], cc[d]);
+        box[3 + d] = std::max(box[3 + d], cc[d]);
+      }
+    }
+    boxes.insert(boxes.end(), box, box + 6);
+  }
+}
+
 std::vector<std::int64_t> RestrictedDelaunay::delaunay_edges(
     const std::int64_t* ids, std::size_t n) const {
-  std::vector<std::int64_t> pairs;
-  auto add = [&](Vertex_handle a, Vertex_handle b) {
-    if (is_dummy(a) || is_dummy(b)) return;
-    std::int64_t x = a->info().id, y = b->info().id;
-    if (x > y) std::swap(x, y);
-    pairs.push_back(x);
-    pairs.push_back(y);
+  // One key per edge and cell (p << 32 | q, p < q), sorted and de-duplicated:
+  // cheaper than CGAL's edge iterator, which circulates around every edge.
+  if (samples_.size() >> 32)
+    throw std::length_error("more than 2**32 samples");
+  std::vector<std::uint64_t> keys;
+  auto add_cell = [&](Cell_handle c) {
+    for (int a = 0; a < 4; ++a) {
+      Vertex_handle va = c->vertex(a);
+      if (dt_.is_infinite(va) || is_dummy(va)) continue;
+      for (int b = a + 1; b < 4; ++b) {
+        Vertex_handle vb = c->vertex(b);
+        if (dt_.is_infinite(vb) || is_dummy(vb)) continue;
+        std::uint64_t x = static_cast<std::uint64_t>(va->info().id);
+        std::uint64_t y = static_cast<std::uint64_t>(vb->info().id);
+        if (x > y) std::swap(x, y);
+        keys.push_back(x << 32 | y);
+      }
+    }
   };
   if (ids == nullptr) {
-    for (auto e = dt_.finite_edges_begin(); e != dt_.finite_edges_end(); ++e)
-      add(e->first->vertex(e->second), e->first->vertex(e->third));
+    keys.reserve(6 * dt_.number_of_finite_cells());
+    for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) add_cell(c);
   } else {
     for (std::size_t k = 0; k < n; ++k) check_id(ids[k], samples_.size());
     std::vector<Cell_handle> around;
     for (std::size_t k = 0; k < n; ++k) {
       around.clear();
       dt_.finite_incident_cells(samples_[ids[k]], std::back_inserter(around));
-      for (Cell_handle c : around)
-        for (int a = 0; a < 4; ++a)
-          for (int b = a + 1; b < 4; ++b) add(c->vertex(a), c->vertex(b));
+      for (Cell_handle c : around) add_cell(c);
     }
   }
-  // Sort and de-duplicate the pairs.
-  const std::size_t m = pairs.size() / 2;
-  std::vector<std::size_t> order(m);
-  for (std::size_t k = 0; k < m; ++k) order[k] = k;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return pairs[2 * a] != pairs[2 * b] ? pairs[2 * a] < pairs[2 * b]
-                                        : pairs[2 * a + 1] < pairs[2 * b + 1];
-  });
-  std::vector<std::int64_t> out;
-  out.reserve(pairs.size());
-  for (std::size_t k : order) {
-    const std::int64_t x = pairs[2 * k], y = pairs[2 * k + 1];
-    const std::size_t s = out.size();
-    if (s >= 2 && out[s - 2] == x && out[s - 1] == y) continue;
-    out.push_back(x);
-    out.push_back(y);
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  std::vector<std::int64_t> out(2 * keys.size());
+  for (std::size_t k = 0; k < keys.size(); ++k) {
+    out[2 * k] = static_cast<std::int64_t>(keys[k] >> 32);
+    out[2 * k + 1] = static_cast<std::int64_t>(keys[k] & 0xffffffffULL);
   }
   return out;
 }

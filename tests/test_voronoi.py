@@ -74,6 +74,22 @@ def test_delaunay_edges_of_stars():
     assert np.array_equal(rdt.delaunay_edges(np.arange(len(x))), every)
 
 
+def test_every_edge_and_its_facet_box_in_one_pass():
+    rdt, x = _cloud(2, 150)
+    edges, box = rdt.voronoi_facet_boxes()
+    # The same edges as the sample's neighbour lists, sorted and each once.
+    offs, adj = rdt.neighbours(np.arange(len(x)))
+    src = np.repeat(np.arange(len(x)), np.diff(offs))
+    keep = src < adj
+    pairs = np.column_stack([src[keep], adj[keep]])
+    assert np.array_equal(edges, pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))])
+    assert np.array_equal(rdt.delaunay_edges(), edges)
+    # Each box is the extent of the facet's polygon, circulated around the edge.
+    off, pts, _, _ = rdt.voronoi_facets(edges)
+    assert np.array_equal(box[:, 0], np.minimum.reduceat(pts, off[:-1], axis=0))
+    assert np.array_equal(box[:, 1], np.maximum.reduceat(pts, off[:-1], axis=0))
+
+
 @pytest.mark.parametrize(
     ("edges", "match"),
     [

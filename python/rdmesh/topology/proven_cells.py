@@ -104,16 +104,10 @@ class CellGeometry:
 
     @classmethod
     def of(cls, rdt, vertices: np.ndarray, centre: np.ndarray, radius: float) -> CellGeometry:
-        edges = rdt.delaunay_edges()
-        off, pts, _, _ = rdt.voronoi_facets(edges)
-        counts = np.diff(off)
-        lo = np.minimum.reduceat(pts, off[:-1], axis=0) if len(edges) else np.zeros((0, 3))
-        hi = np.maximum.reduceat(pts, off[:-1], axis=0) if len(edges) else np.zeros((0, 3))
-        lo = np.where(counts[:, None] > 0, lo, np.inf)
-        hi = np.where(counts[:, None] > 0, hi, -np.inf)
+        edges, box = rdt.voronoi_facet_boxes()
         # Circumcentres are rounded: widen a little.
-        lo = np.clip(lo - 1e-9 * radius, centre - radius, centre + radius)
-        hi = np.clip(hi + 1e-9 * radius, centre - radius, centre + radius)
+        lo = np.clip(box[:, 0] - 1e-9 * radius, centre - radius, centre + radius)
+        hi = np.clip(box[:, 1] + 1e-9 * radius, centre - radius, centre + radius)
         n = len(vertices)
         src = np.concatenate([edges[:, 0], edges[:, 1]])
         dst = np.concatenate([edges[:, 1], edges[:, 0]])
@@ -138,6 +132,8 @@ def proven_loop_test(
     give the facets of complex edges their direction: across the chord
     between the arc's two ends.
     """
+    if not isinstance(surface.f, Expression):
+        raise TypeError("proven_voronoi_loop needs an expression surface")
     e = geometry.edges
     p, q = vertices[e[:, 0]], vertices[e[:, 1]]
     normal = q - p
@@ -145,6 +141,15 @@ def proven_loop_test(
     mid = 0.5 * (p + q)
 
     live = np.flatnonzero(np.all(geometry.lo <= geometry.hi, axis=1))
+    keys = _edge_keys(e)
+    if memo is not None and len(memo.clean_edges):
+        dirty, _ = memo.touched(rdt, memo.edge_samples, len(vertices))
+        known = np.isin(keys, memo.clean_edges) & ~np.isin(keys, dirty)
+        live = live[~known[live]]
+    # A facet whose whole box has 0 outside the bounds of f misses the surface:
+    # proven clean without a direction (about half of them).
+    enc = surface.f.interval(geometry.lo[live], geometry.hi[live])
+    live = live[enc.undefined | ((enc.lo <= 0) & (enc.hi >= 0))]
     direction = np.zeros((len(e), 3))
     direction[live] = _in_plane_direction(
         surface, geometry.lo[live], geometry.hi[live], mid[live], normal[live]
@@ -155,11 +160,6 @@ def proven_loop_test(
         ok = row_norms(across) > TINY
         direction[rows[ok]] = across[ok] / row_norms(across[ok])[:, None]
 
-    keys = _edge_keys(e)
-    if memo is not None and len(memo.clean_edges):
-        dirty, _ = memo.touched(rdt, memo.edge_samples, len(vertices))
-        known = np.isin(keys, memo.clean_edges) & ~np.isin(keys, dirty)
-        live = live[~known[live]]
     plane = np.column_stack([normal, np.einsum("ij,ij->i", mid, normal)])
     out = _prove(
         "proven_voronoi_loop", surface, vertices, tree, geometry,
@@ -319,14 +319,15 @@ def _chords(edges: np.ndarray, tri: np.ndarray, centres: np.ndarray):
     t = np.sort(tri, axis=1)
     pairs = np.concatenate([t[:, [0, 1]], t[:, [0, 2]], t[:, [1, 2]]])
     owner = np.tile(np.arange(len(t)), 3)
-    key, inv, cnt = np.unique(pairs, axis=0, return_inverse=True, return_counts=True)
-    inv = inv.ravel()
-    order = np.argsort(inv, kind="stable")
-    first = np.r_[0, np.cumsum(cnt)[:-1]]
-    two = np.flatnonzero(cnt == 2)
-    a = centres[owner[order[first[two]]]]
-    b = centres[owner[order[first[two] + 1]]]
-    rows = row_index(key[two], edges)
+    key = _edge_keys(pairs)
+    order = np.argsort(key, kind="stable")
+    key, owner = key[order], owner[order]
+    # Keys that occur exactly twice: the two restricted facets of a complex edge.
+    start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    count = np.diff(np.r_[start, len(key)])
+    two = start[count == 2]
+    a, b = centres[owner[two]], centres[owner[two + 1]]
+    rows = row_index(pairs[order[two]], edges)
     ok = rows >= 0
     return rows[ok], (b - a)[ok]
 
