@@ -33,17 +33,23 @@ def main(argv: list[str] | None = None) -> int:
         f"{len(mesh.vertices)} vertices, min angle {mesh.min_angle:.1f} deg, genus "
         f"{', '.join(f'{g:g}' for g in sorted(topo['genus'], reverse=True))}"
     )
-    # Frame the picture by the mesh's box enlarged by 10% on each side (the
-    # renderer zooms in on the faces' box and would cut the corners off): its
-    # 8 corners as invisible zero-area faces.
+    render_framed(mesh, out, title)
+    print(f"wrote {out}: {title}")
+    return 0
+
+
+def render_framed(mesh: rdmesh.SurfaceMesh, out: str, title: str, size: int = 720) -> None:
+    """Draw ``mesh`` framed by its box enlarged by 10% on each side.
+
+    The renderer zooms in on the faces' box and would cut the corners off; the
+    frame's 8 corners are added as invisible zero-area faces.
+    """
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     lo, hi = lo - 0.1 * (hi - lo), hi + 0.1 * (hi - lo)
     corners = lo + np.array(list(itertools.product((0, 1), repeat=3))) * (hi - lo)
     vertices = np.concatenate([mesh.vertices, corners])
     dots = len(mesh.vertices) + np.repeat(np.arange(8), 3).reshape(8, 3)
-    render(vertices, np.concatenate([mesh.faces, dots]), out, title=title, size=720)
-    print(f"wrote {out}: {title}")
-    return 0
+    render(vertices, np.concatenate([mesh.faces, dots]), out, title=title, size=size)
 
 
 if __name__ == "__main__":

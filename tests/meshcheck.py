@@ -89,6 +89,70 @@ def closed_manifold_problems(faces: np.ndarray, n_vertices: int) -> list[str]:
     return problems
 
 
+def vertex_link_paths(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """For each vertex, the number of connected pieces of its link and the
+    largest degree in it ``((V,), (V,))``.
+
+    A vertex is a manifold vertex (inside or on the boundary) when its link is
+    one piece of degree at most 2: one cycle, or one path. Vertices without
+    faces get ``(0, 0)``.
+    """
+    f = np.asarray(faces, dtype=np.int64)
+    v = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
+    w1 = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
+    w2 = np.concatenate([f[:, 2], f[:, 0], f[:, 1]])
+    n = np.int64(n_vertices)
+    nodes, inv = np.unique(np.concatenate([v * n + w1, v * n + w2]), return_inverse=True)
+    degree = np.bincount(inv, minlength=len(nodes))
+    m = len(nodes)
+    g = coo_matrix((np.ones(len(v)), (inv[: len(v)], inv[len(v) :])), shape=(m, m))
+    _, label = connected_components(g, directed=False)
+    owner = nodes // n
+    pairs = np.unique(np.column_stack([owner, label]), axis=0)
+    pieces = np.bincount(pairs[:, 0], minlength=n_vertices)
+    top = np.zeros(n_vertices, dtype=np.int64)
+    np.maximum.at(top, owner, degree)
+    return pieces, top
+
+
+def manifold_with_boundary_problems(faces: np.ndarray, n_vertices: int) -> list[str]:
+    """Empty list when ``faces`` is a consistently oriented 2-manifold with a
+    non-empty boundary: every edge in one or two faces (some in one), every
+    vertex's link one cycle or one path."""
+    f = np.asarray(faces, dtype=np.int64)
+    if len(f) == 0:
+        return ["no faces"]
+    problems = []
+    if np.any((f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 0] == f[:, 2])):
+        problems.append("degenerate face with a repeated vertex")
+    _, u_count, d_count = edge_counts(f)
+    if np.any(u_count > 2):
+        problems.append(f"{int(np.sum(u_count > 2))} edges in more than 2 faces")
+    if not np.any(u_count == 1):
+        problems.append("no boundary edge")
+    if np.any(d_count != 1):
+        problems.append(
+            f"{int(np.sum(d_count != 1))} directed edges repeated: inconsistent winding"
+        )
+    pieces, top = vertex_link_paths(f, n_vertices)
+    used = np.unique(f)
+    bad = (pieces[used] != 1) | (top[used] > 2)
+    if bad.any():
+        problems.append(f"{int(bad.sum())} vertices whose link is not one cycle or one path")
+    return problems
+
+
+def boundary_loop_count(faces: np.ndarray) -> int:
+    """The number of boundary loops: connected pieces of the boundary edges."""
+    b, verts = boundary_edges(faces)
+    if len(b) == 0:
+        return 0
+    idx = np.searchsorted(verts, b)
+    k = len(verts)
+    g = coo_matrix((np.ones(len(b)), (idx[:, 0], idx[:, 1])), shape=(k, k))
+    return int(connected_components(g, directed=False)[0])
+
+
 def face_components(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
     """Connected components of faces sharing a vertex: (count, label per face)."""
     f = np.asarray(faces, dtype=np.int64)

@@ -184,6 +184,13 @@ ERRORS = [
     (["mesh", "sphere", "--method", "magic", "-o", "x.ply"], r"invalid choice"),
     (["mesh", "sphere", "--topology", "knot", "-o", "x.ply"], r"invalid choice"),
     (["mesh", "sphere", "--png-size", "5", "-o", "x.ply"], r"between 16 and 10000"),
+    (["mesh", "z", "--clip-box", "0", "0", "0", "1", "1", "-o", "x.ply"], r"expected 6 arguments"),
+    (["mesh", "z", "--clip-box", "0", "0", "0", "1", "nan", "1", "-o", "x.ply"], r"finite: 'nan'"),
+    (["mesh", "z", "--clip-box", "0", "1", "0", "1", "1", "1", "-o", "x.ply"], r"not on y$"),
+    (
+        ["mesh", "z", "--bound", "1", "--clip-box", "0", "0", "0", "1", "1", "1", "-o", "x.ply"],
+        r"clip box .* must lie inside its bounding sphere",
+    ),
     (["mesh", "sphere", "-o", "x.xyz"], r"unknown mesh format 'xyz'"),
     (["mesh", "sphere", "-o", "x.ply", "--png", "x.jpg"], r"must end in .png"),
     (["mesh", "sphere", "-o", "afile/x.ply"], r"cannot create folder"),

@@ -65,3 +65,47 @@ def sphere(bounding_sphere: Any) -> tuple[np.ndarray, float]:
     if not np.isfinite(r) or r <= 0:
         raise ValueError(f"bounding sphere radius must be positive and finite, got {radius!r}")
     return c, r
+
+
+def box_in_sphere(box: Any, centre: np.ndarray, radius: float, name: str) -> np.ndarray:
+    """``box`` as a new ``(2, 3)`` float64 array (lowest corner, highest corner),
+    if it is finite, ``lo < hi`` on every axis and strictly inside the sphere.
+
+    ``name`` is the surface's, for the messages.
+    """
+    try:
+        raw = np.array(box)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"clip_box of {name!r} must be a (2, 3) array (lowest and highest corners), "
+            f"got {box!r}"
+        ) from None
+    if raw.shape != (2, 3):
+        raise ValueError(
+            f"clip_box of {name!r} must have shape (2, 3) (lowest and highest corners), "
+            f"got shape {raw.shape}"
+        )
+    if raw.dtype.kind not in "iuf":
+        raise ValueError(
+            f"clip_box of {name!r} must hold real numbers, got {raw.dtype} values {box!r}"
+        )
+    b = raw.astype(np.float64)
+    if not np.all(np.isfinite(b)):
+        raise ValueError(f"clip_box of {name!r} must be finite, got {b.tolist()}")
+    flat = b[0] >= b[1]
+    if flat.any():
+        axes = ", ".join("xyz"[k] for k in np.flatnonzero(flat))
+        raise ValueError(
+            f"clip_box of {name!r} must have lo < hi on every axis (rows: lowest corner, "
+            f"highest corner), got {b.tolist()}: not on {axes}"
+        )
+    # The boundary curve is traced on the box faces: all of them in the ball.
+    corners = np.stack(np.meshgrid(*b.T, indexing="ij"), axis=-1).reshape(-1, 3)
+    far = float(np.linalg.norm(corners - centre, axis=1).max())
+    if far >= radius:
+        raise ValueError(
+            f"the clip box {b.tolist()} of {name!r} must lie inside its bounding sphere "
+            f"(centre {np.asarray(centre).tolist()}, radius {radius:g}): a corner is "
+            f"{far:.6g} from the centre"
+        )
+    return b

@@ -4,15 +4,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import numpy as np
-
-from ._validate import choice, integer, positive
+from ._validate import box_in_sphere, choice, integer, positive
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria, Sizing
 from .refine.mesher import Budget, Mesher
 from .refine.methods import METHODS, TOPOLOGIES
 from .surfaces.expressions import Expression
 from .surfaces.oracle import ImplicitSurface
+from .surfaces.volume import VolumeSurface
 
 
 def mesh_surface(
@@ -56,8 +55,8 @@ def mesh_surface(
         As CGAL's Manifold_tag, Manifold_with_boundary_tag and
         Non_manifold_tag: what the final refinement stage repairs. Default
         (None): "manifold", or "manifold-with-boundary" for a surface clipped
-        to a box (``VolumeSurface(border="clipped")``, whose ``clip_box`` is
-        set), which accepts no other topology. With
+        to a box (``ImplicitSurface(..., clip_box=...)``, or
+        ``VolumeSurface(border="clipped")``), which accepts no other topology. With
         "manifold-with-boundary" (Boissonnat-Oudot only) the surface may also
         cross the bounding sphere: the mesh is the part inside. The curve
         where the surface meets the sphere is traced on a fine point set of
@@ -126,7 +125,9 @@ def mesh_surface(
     ValueError
         Invalid criteria, method or topology; a surface clipped to a box
         with a topology other than "manifold-with-boundary", the
-        topological-ball method or ``certify=True``.
+        topological-ball method or ``certify=True``, or whose ``clip_box``
+        (reassigned since the surface was made) is no longer a valid box
+        inside the bounding sphere.
     rdmesh.OracleError
         ``f`` raised, returned the wrong shape or a non-finite value.
     rdmesh.EmptySurfaceError
@@ -225,24 +226,25 @@ def _topology(surface: ImplicitSurface, topology: str | None, method: str) -> st
     choice("topology", topology, TOPOLOGIES)
     if not boxed:
         return topology
+    # For a volume, the closed border; for any other surface, no box.
+    closed = (
+        "border='closed' for a closed surface"
+        if isinstance(surface, VolumeSurface)
+        else "clip_box=None to mesh it inside the bounding sphere"
+    )
     if method != "boissonnat-oudot":
         raise ValueError(
             f"method {method!r} cannot mesh {surface.name!r}, which is clipped to a box "
             "(a surface with a boundary): use method='boissonnat-oudot' (with "
-            "topology='manifold-with-boundary', the default for it), or border='closed' "
-            "for a closed surface"
+            f"topology='manifold-with-boundary', the default for it), or {closed}"
         )
     if topology != "manifold-with-boundary":
         raise ValueError(
             f"topology {topology!r} cannot mesh {surface.name!r}, which is clipped to a box: "
             "its mesh has a boundary on the box faces; use topology='manifold-with-boundary' "
-            "(the default for it), or border='closed' for a closed surface"
+            f"(the default for it), or {closed}"
         )
-    # The boundary curve is traced on the box faces: all of them in the ball.
-    box = np.asarray(surface.clip_box, dtype=np.float64)
-    corners = np.stack(np.meshgrid(*box.T, indexing="ij"), axis=-1).reshape(-1, 3)
-    if np.linalg.norm(corners - surface.centre, axis=1).max() >= surface.radius:
-        raise ValueError(
-            f"the clip box {box.tolist()} of {surface.name!r} must lie inside its bounding sphere"
-        )
+    # Checked when the surface was made; again here, as the attribute may
+    # have been reassigned since.
+    box_in_sphere(surface.clip_box, surface.centre, surface.radius, surface.name)
     return topology

@@ -2,10 +2,12 @@
 
 ``rdmesh mesh SURFACE -o OUT`` meshes a built-in surface (``rdmesh list``) or
 an expression in x, y and z (``"x**2 + y**2 + z**2 - 1"``, with ``--bound R``
-or ``--sphere cx,cy,cz,R``) and writes the mesh in the format its extension
-names, and with ``--png`` a picture. ``rdmesh remesh IN -o OUT`` remeshes a
-triangle mesh file (:class:`rdmesh.MeshSurface`). ``rdmesh demo`` meshes a built-in surface
-and writes the mesh and a picture.
+or ``--sphere cx,cy,cz,R``), optionally clipped to a box (``--clip-box X0 Y0 Z0
+X1 Y1 Z1``: the part inside it, with a boundary on its faces), and writes the
+mesh in the format its extension names, and with ``--png`` a picture.
+``rdmesh remesh IN -o OUT`` remeshes a triangle mesh file
+(:class:`rdmesh.MeshSurface`). ``rdmesh demo`` meshes a built-in surface and
+writes the mesh and a picture.
 
 Output: the summary goes to stdout; the progress bar (runs over a second),
 log messages and errors go to stderr. ``--quiet`` keeps stderr silent unless
@@ -159,7 +161,8 @@ def _parser() -> argparse.ArgumentParser:
             "or --sphere. Expressions use numbers, x y z, pi e tau, + - * / ** and math "
             "functions (sin cos tan exp log sqrt abs min max hypot atan2 ...). Quote them; "
             "put '--' before one that starts with '-'. For a built-in surface, --bound or "
-            "--sphere replaces its bounding sphere."
+            "--sphere replaces its bounding sphere. --clip-box meshes only the part inside a "
+            "box, with a boundary on its faces."
         ),
         epilog=_EPILOG,
     )
@@ -183,6 +186,15 @@ def _parser() -> argparse.ArgumentParser:
         type=_sphere,
         metavar="CX,CY,CZ,R",
         help="bounding sphere (write --sphere=-1,0,0,2 if CX is negative)",
+    )
+    mesh.add_argument(
+        "--clip-box",
+        type=_number,
+        nargs=6,
+        metavar=("X0", "Y0", "Z0", "X1", "Y1", "Z1"),
+        help="mesh only the part inside the box from (X0, Y0, Z0) to (X1, Y1, Z1), with a "
+        "boundary on its faces (topology manifold-with-boundary); the box must lie inside "
+        "the bounding sphere, which defaults to the box's circumscribed sphere enlarged by 10%%",
     )
     _add_run_options(mesh, method=True)
     _add_volume_options(mesh)
@@ -241,7 +253,7 @@ def _add_run_options(p: argparse.ArgumentParser, method: bool) -> None:
         default=None,
         choices=TOPOLOGIES,
         help="what the last stage repairs, as CGAL's tags (default manifold; "
-        "manifold-with-boundary for a volume with --border clipped)",
+        "manifold-with-boundary with --clip-box or a volume with --border clipped)",
     )
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument(
@@ -352,20 +364,42 @@ def _check_writable(path: str, picture: bool = False) -> None:
         raise _CliError(f"cannot write to folder {folder!r}: permission denied")
 
 
+#: With ``--clip-box`` and no sphere, the box's circumscribed sphere enlarged by this.
+_CLIP_SPHERE_MARGIN = 1.1
+
+
 def _surface(args) -> ImplicitSurface:
-    """The built-in surface, the expression or the volume (.npy) named by SURFACE."""
+    """The built-in surface, the expression or the volume (.npy) named by SURFACE,
+    clipped to ``--clip-box`` if given."""
     text = args.surface.strip()
     if _is_volume(args):
         return _volume_surface(args)
     sphere = args.sphere
     if args.bound is not None:
         sphere = ((0.0, 0.0, 0.0), args.bound)
+    box = None
+    if args.clip_box is not None:
+        lo, hi = args.clip_box[:3], args.clip_box[3:]
+        flat = [axis for axis, a, b in zip("xyz", lo, hi, strict=True) if not a < b]
+        if flat:
+            raise _CliError(
+                f"--clip-box X0 Y0 Z0 X1 Y1 Z1 needs X0 < X1, Y0 < Y1 and Z0 < Z1; not on "
+                f"{', '.join(flat)}"
+            )
+        box = (lo, hi)
+        if sphere is None:
+            # The box's circumscribed sphere, a little enlarged.
+            centre = tuple(0.5 * (a + b) for a, b in zip(lo, hi, strict=True))
+            half = 0.5 * math.dist(lo, hi)
+            sphere = (centre, _CLIP_SPHERE_MARGIN * half)
     key = text.lower().replace("-", "_").replace(" ", "_")
     if key in SURFACES:
         surface = SURFACES[key].make()
-        if sphere is None:
+        if sphere is None and box is None:
             return surface
-        return ImplicitSurface(surface.f, sphere, gradient=surface.gradient, name=surface.name)
+        return ImplicitSurface(
+            surface.f, sphere, gradient=surface.gradient, name=surface.name, clip_box=box
+        )
     if text.isidentifier() and text not in VARIABLES and text not in CONSTANTS:
         raise _CliError(
             f"unknown surface {args.surface!r}: built-in surfaces are {', '.join(SURFACES)}; "
@@ -375,9 +409,9 @@ def _surface(args) -> ImplicitSurface:
     if sphere is None:
         raise _CliError(
             f"the expression {text!r} needs a bounding sphere: give --bound R or "
-            "--sphere cx,cy,cz,R"
+            "--sphere cx,cy,cz,R (or --clip-box)"
         )
-    return ImplicitSurface.from_expression(text, bounding_sphere=sphere)
+    return ImplicitSurface.from_expression(text, bounding_sphere=sphere, clip_box=box)
 
 
 # -- volumes: ``rdmesh mesh volume.npy --isovalue V [--spacing SX SY SZ] ...`` --------
@@ -446,6 +480,10 @@ def _volume_surface(args) -> ImplicitSurface:
     path = args.surface.strip()
     if args.bound is not None or args.sphere is not None:
         raise _CliError("--bound and --sphere do not apply to a volume: its box bounds it")
+    if args.clip_box is not None:
+        raise _CliError(
+            "--clip-box does not apply to a volume: use --border clipped to clip it to its box"
+        )
     try:
         volume = np.load(path, allow_pickle=False)
     except FileNotFoundError:

@@ -242,7 +242,9 @@ class SurfaceMesh:
         if self.report:
             failed = [k for k, t in self.report["tests"].items() if t["held"] is False]
             if self.report.get("boundary") is not None:
-                held = "not applicable (the surface leaves the bounding sphere), NOT certified"
+                box = self.report["boundary"].get("domain") == "box"
+                where = "its clip box" if box else "the bounding sphere"
+                held = f"not applicable (the surface leaves {where}), NOT certified"
                 failed = []
             elif self.report.get("certified"):
                 held = "certified"

@@ -212,7 +212,9 @@ def box_grid(box: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndar
     for k in range(3):
         cells = max(1, int(np.ceil((hi[k] - lo[k]) / h)))
         t = (np.arange(cells) + _SHIFT) / cells
-        axes.append(lo[k] + (hi[k] - lo[k]) * np.r_[0.0, t, 1.0])
+        # The ends are the bounds themselves: lo + (hi - lo) * 1 can round
+        # off hi, and then no grid edge would be found on that box edge.
+        axes.append(np.r_[lo[k], lo[k] + (hi[k] - lo[k]) * t, hi[k]])
     size = np.array([len(a) for a in axes])
     keys, tris = [], []
     for k in range(3):

@@ -7,10 +7,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._errors import OracleError
 from .._tol import GRADIENT_STEP
-from .._validate import sphere
+from .._validate import box_in_sphere, sphere
 
 ArrayFunction = Callable[[np.ndarray], np.ndarray]
 
@@ -29,27 +30,75 @@ class ImplicitSurface:
         called on large arrays, never point by point.
     bounding_sphere : (centre, radius)
         A sphere that strictly contains the surface. ``f`` must be positive on
-        and outside it.
+        and outside it, unless the surface is meshed with a boundary
+        (``topology="manifold-with-boundary"``, or a ``clip_box``, which the
+        sphere must contain).
     gradient : callable, optional
         Maps ``(N, 3)`` points to ``(N, 3)`` gradients of ``f``. Without it,
         central finite differences are used.
     name : str, optional
         A label for logs and reports.
+    clip_box : (2, 3) array_like, optional
+        Mesh only the part of the surface inside this axis-aligned box: its
+        lowest corner ``(x0, y0, z0)`` and highest corner ``(x1, y1, z1)``,
+        finite, with ``x0 < x1``, ``y0 < y1``, ``z0 < z1``, and strictly
+        inside the bounding sphere. The surface may then cross the box
+        faces (and the sphere): :func:`rdmesh.mesh_surface` meshes the part
+        inside the box, with a boundary on its faces, with
+        ``topology="manifold-with-boundary"`` (the default for such a
+        surface; other topologies, ``method="topological-ball"`` and
+        ``certify=True`` raise ValueError). Default None: no box, the
+        bounding ball only.
+
+    Attributes
+    ----------
+    centre : (3,) float64
+    radius : float
+        The bounding sphere's centre and radius.
+    clip_box : (2, 3) float64 or None
+        The checked box (a copy), or None. It may be reassigned;
+        :func:`rdmesh.mesh_surface` checks it again.
+    evaluations : int
+        The number of points evaluated so far.
+
+    Raises
+    ------
+    ValueError
+        ``f`` or ``gradient`` not callable, a bad bounding sphere, or a
+        ``clip_box`` that is not a ``(2, 3)`` array of finite numbers with
+        ``lo < hi`` on every axis, or that reaches outside the bounding
+        sphere (the message names which).
 
     Notes
     -----
     Every call of ``f`` is checked: it must return ``N`` finite values.
-    ``evaluations`` counts the points evaluated so far. ``clip_box`` (None
-    here) is set by surfaces meshed only inside an axis-aligned box within
-    the sphere, such as ``VolumeSurface(border="clipped")``: a ``(2, 3)``
-    array of the lowest and highest corners; they need
-    ``topology="manifold-with-boundary"``.
+
+    With a clip box, the sphere only has to contain the box: ``f`` need not
+    be positive on it. The seeding grid spans the sphere
+    (``seed_resolution`` cells across it), so a sphere just around the box
+    (its circumscribed sphere, a little enlarged) wastes the fewest cells.
+    ``VolumeSurface(border="clipped")`` sets the volume's box as its clip
+    box. Nothing is certified for a clipped surface (the README, "Surfaces
+    that leave the domain").
+
+    Examples
+    --------
+    A gyroid lattice in a cube:
+
+    >>> import rdmesh
+    >>> gyroid = rdmesh.ImplicitSurface.from_expression(
+    ...     "sin(x)*cos(y) + sin(y)*cos(z) + sin(z)*cos(x)",
+    ...     ((0, 0, 0), 6.0),
+    ...     clip_box=[(-3, -3, -3), (3, 3, 3)],
+    ... )
+    >>> mesh = rdmesh.mesh_surface(gyroid)  # doctest: +SKIP
     """
 
     f: ArrayFunction
     bounding_sphere: tuple
     gradient: ArrayFunction | None = None
     name: str = "implicit surface"
+    clip_box: ArrayLike | None = None
     evaluations: int = field(default=0, init=False)
 
     def __post_init__(self) -> None:
@@ -60,12 +109,17 @@ class ImplicitSurface:
         self.centre, self.radius = sphere(self.bounding_sphere)
         self._lock = threading.Lock()
         self.bounding_sphere = (self.centre, self.radius)
-        #: The box the mesh is clipped to (None: the bounding ball only).
-        self.clip_box: np.ndarray | None = None
+        if self.clip_box is not None:
+            self.clip_box = box_in_sphere(self.clip_box, self.centre, self.radius, self.name)
 
     @classmethod
     def from_expression(
-        cls, text: str, bounding_sphere: tuple, name: str | None = None
+        cls,
+        text: str,
+        bounding_sphere: tuple,
+        name: str | None = None,
+        *,
+        clip_box: ArrayLike | None = None,
     ) -> ImplicitSurface:
         """The surface ``text = 0`` for an arithmetic expression in x, y and z.
 
@@ -76,9 +130,14 @@ class ImplicitSurface:
             ``pi e tau``, ``+ - * / **`` and whitelisted math functions are
             accepted (see :mod:`rdmesh.surfaces.expressions`); it is never ``eval``-ed.
         bounding_sphere : (centre, radius)
-            A sphere that strictly contains the surface.
+            A sphere that strictly contains the surface (or the clip box).
         name : str, optional
             A label; the expression text by default.
+        clip_box : (2, 3) array_like, optional
+            Mesh only the part inside this axis-aligned box (lowest corner,
+            highest corner), which must lie inside the bounding sphere; see
+            :class:`ImplicitSurface`. The mesh then has a boundary on the
+            box faces and nothing is certified for it.
 
         Returns
         -------
@@ -90,6 +149,8 @@ class ImplicitSurface:
         ------
         rdmesh.ExpressionError
             (a ValueError) naming what is not allowed, or a syntax error.
+        ValueError
+            A bad bounding sphere or clip box (see :class:`ImplicitSurface`).
         """
         from .expressions import parse_expression
 
@@ -100,7 +161,9 @@ class ImplicitSurface:
         def gradient(points: np.ndarray) -> np.ndarray:
             return expr.gradient(points, step=step)
 
-        return cls(expr, (centre, radius), gradient=gradient, name=name or expr.text)
+        return cls(
+            expr, (centre, radius), gradient=gradient, name=name or expr.text, clip_box=clip_box
+        )
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """Evaluate ``f`` on ``(N, 3)`` points; returns ``(N,)`` float64."""

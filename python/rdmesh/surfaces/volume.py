@@ -359,9 +359,12 @@ class VolumeSurface(ImplicitSurface):
         )
         if border == "clipped":
             super().__init__(
-                self.f_volume, (centre, radius), gradient=self._volume_gradient, name=name
+                self.f_volume,
+                (centre, radius),
+                gradient=self._volume_gradient,
+                name=name,
+                clip_box=self.box,
             )
-            self.clip_box = self.box.copy()
         else:
             super().__init__(self._f, (centre, radius), gradient=self._gradient, name=name)
 
