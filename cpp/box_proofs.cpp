@@ -29,13 +29,18 @@ bool meets_plane(const Box& b, const double* plane) {
 }
 
 void prove_owner(std::size_t i, const BoxProofInput& in, BoxEvaluator& eval,
-                 std::vector<Box>& stack, std::vector<CellPlane>& planes, BoxProofResult& out) {
-  Box first;
-  for (int k = 0; k < 3; ++k) {
-    first.lo[k] = in.lo[3 * i + k];
-    first.hi[k] = in.hi[3 * i + k];
+                 std::vector<Box>& stack, std::vector<CellPlane>& planes, BoxProofResult& out,
+                 std::vector<Box>* leaves) {
+  // The first boxes in reverse, so that the first is taken first.
+  stack.clear();
+  for (std::int64_t r = in.first[i + 1] - 1; r >= in.first[i]; --r) {
+    Box b;
+    for (int k = 0; k < 3; ++k) {
+      b.lo[k] = in.lo[3 * r + k];
+      b.hi[k] = in.hi[3 * r + k];
+    }
+    stack.push_back(b);
   }
-  stack.assign(1, first);
   const std::int64_t skip = in.skip ? in.skip[i] : -1;
   // The owner's bisectors once, not per box.
   cell_planes(in.cell[i], skip, in.points, in.offsets, in.neighbour, planes);
@@ -52,7 +57,10 @@ void prove_owner(std::size_t i, const BoxProofInput& in, BoxEvaluator& eval,
     // the centre) only where it must decide.
     eval.evaluate(box.lo, box.hi, b);
     ++count;
-    if (!b.undefined && gradient_keeps_sign(b, d)) continue;
+    if (!b.undefined && gradient_keeps_sign(b, d)) {
+      if (leaves) leaves->push_back(box);
+      continue;
+    }
     if (!(b.lo <= 0 && b.hi >= 0)) continue;
     eval.tighten(box.lo, box.hi, b);
     if (!(b.lo <= 0 && b.hi >= 0)) continue;
@@ -64,6 +72,7 @@ void prove_owner(std::size_t i, const BoxProofInput& in, BoxEvaluator& eval,
     }
     if (side[axis] <= in.floor[i] || count >= in.budget) {
       out.failed[i] = 1;
+      if (leaves) leaves->clear();
       for (int k = 0; k < 3; ++k) {
         out.lo[3 * i + k] = box.lo[k];
         out.hi[3 * i + k] = box.hi[k];
@@ -91,6 +100,7 @@ BoxProofResult prove_boxes(const std::vector<IntervalInstruction>& program,
   out.lo.assign(3 * in.n, 0.0);
   out.hi.assign(3 * in.n, 0.0);
   out.boxes.assign(in.n, 0);
+  std::vector<std::vector<Box>> leaves(in.leaves ? in.n : 0);
   // Owners take very different work; each writes only its own rows.
   struct Worker {
     BoxEvaluator eval;
@@ -99,8 +109,20 @@ BoxProofResult prove_boxes(const std::vector<IntervalInstruction>& program,
   };
   for_each_on_cores(
       in.n, [&] { return Worker{BoxEvaluator(program, true, false), {}, {}}; },
-      [&](Worker& w, std::size_t i) { prove_owner(i, in, w.eval, w.stack, w.planes, out); },
+      [&](Worker& w, std::size_t i) {
+        prove_owner(i, in, w.eval, w.stack, w.planes, out, in.leaves ? &leaves[i] : nullptr);
+      },
       std::max<std::size_t>(1, in.n / 8));
+  if (in.leaves) {
+    out.leaf_first.assign(1, 0);
+    for (const auto& owned : leaves) {
+      for (const Box& b : owned) {
+        out.leaf_lo.insert(out.leaf_lo.end(), b.lo, b.lo + 3);
+        out.leaf_hi.insert(out.leaf_hi.end(), b.hi, b.hi + 3);
+      }
+      out.leaf_first.push_back(out.leaf_first.back() + static_cast<std::int64_t>(owned.size()));
+    }
+  }
   return out;
 }
 

@@ -337,18 +337,36 @@ PYBIND11_MODULE(_rdt, m) {
       [](const OpArray& ops, const InArray& consts, const InArray& lo, const InArray& hi,
          const IdArray& cell, const InArray& direction, const InArray& floor,
          const InArray& points, const IdArray& offsets, const IdArray& neighbour,
-         std::optional<IdArray> skip, std::optional<InArray> plane, std::int64_t budget) {
+         std::optional<IdArray> skip, std::optional<InArray> plane, std::int64_t budget,
+         std::optional<IdArray> first, bool leaves) {
         const std::vector<rdmesh::IntervalInstruction> program = program_of(ops, consts);
         const std::vector<double> L = rows3(lo, "lo"), H = rows3(hi, "hi");
         const std::vector<double> P = rows3(points, "points"), D = rows3(direction, "direction");
-        const std::size_t n = L.size() / 3, np_ = P.size() / 3;
-        if (H.size() != L.size() || D.size() != L.size())
-          throw std::invalid_argument("lo, hi and direction must have the same shape");
+        const std::size_t rows = L.size() / 3, np_ = P.size() / 3;
+        if (H.size() != L.size()) throw std::invalid_argument("lo and hi must have the same shape");
+        std::vector<std::int64_t> start;
+        if (first) {
+          if (first->ndim() != 1 || first->shape(0) < 1)
+            throw std::invalid_argument("first must have shape (n + 1,)");
+          start = copy_of<std::int64_t>(*first);
+          bool ok = start.front() == 0 && start.back() == static_cast<std::int64_t>(rows);
+          for (std::size_t i = 1; i < start.size(); ++i) ok = ok && start[i - 1] <= start[i];
+          if (!ok)
+            throw std::invalid_argument(
+                "first must rise from 0 to the number of boxes (each owner's rows of lo, hi)");
+        } else {
+          start.resize(rows + 1);
+          for (std::size_t i = 0; i <= rows; ++i) start[i] = static_cast<std::int64_t>(i);
+        }
+        const std::size_t n = start.size() - 1;
+        if (D.size() != 3 * n)
+          throw std::invalid_argument(
+              "direction must have one row per owner (without first: the same shape as lo)");
         for (std::size_t i = 0; i < L.size(); ++i)
           if (!std::isfinite(L[i]) || !std::isfinite(H[i]) || !(L[i] <= H[i]))
             throw std::invalid_argument("boxes must be finite with lo <= hi");
         if (floor.ndim() != 1 || static_cast<std::size_t>(floor.shape(0)) != n)
-          throw std::invalid_argument("floor must have shape (n,), one per box");
+          throw std::invalid_argument("floor must have shape (n,), one per owner");
         const std::vector<double> F = copy_of<double>(floor);
         for (double f : F)
           if (!(f > 0) || !std::isfinite(f))
@@ -362,7 +380,7 @@ PYBIND11_MODULE(_rdt, m) {
         std::vector<std::int64_t> S;
         if (skip) {
           if (skip->ndim() != 1 || static_cast<std::size_t>(skip->shape(0)) != n)
-            throw std::invalid_argument("skip must have shape (n,), one per box");
+            throw std::invalid_argument("skip must have shape (n,), one per owner");
           S = copy_of<std::int64_t>(*skip);
         }
         std::vector<double> Q;
@@ -374,6 +392,7 @@ PYBIND11_MODULE(_rdt, m) {
         }
         rdmesh::BoxProofInput in;
         in.n = n;
+        in.first = start.data();
         in.lo = L.data();
         in.hi = H.data();
         in.cell = C.data();
@@ -385,22 +404,31 @@ PYBIND11_MODULE(_rdt, m) {
         in.offsets = off.data();
         in.neighbour = nb.data();
         in.budget = static_cast<std::size_t>(budget);
+        in.leaves = leaves;
         rdmesh::BoxProofResult r;
         {
           py::gil_scoped_release release;
           r = rdmesh::prove_boxes(program, in);
         }
         const auto nn = static_cast<py::ssize_t>(n);
-        return py::make_tuple(to_numpy(r.failed, {nn}), to_numpy(r.lo, {nn, 3}),
-                              to_numpy(r.hi, {nn, 3}), to_numpy(r.boxes, {nn}));
+        py::tuple out = py::make_tuple(to_numpy(r.failed, {nn}), to_numpy(r.lo, {nn, 3}),
+                                       to_numpy(r.hi, {nn, 3}), to_numpy(r.boxes, {nn}));
+        if (!leaves) return out;
+        const auto nl = static_cast<py::ssize_t>(r.leaf_lo.size() / 3);
+        return py::tuple(out + py::make_tuple(to_numpy(r.leaf_first, {nn + 1}),
+                                              to_numpy(r.leaf_lo, {nl, 3}),
+                                              to_numpy(r.leaf_hi, {nl, 3})));
       },
       py::arg("ops"), py::arg("consts"), py::arg("lo"), py::arg("hi"), py::arg("cell"),
       py::arg("direction"), py::arg("floor"), py::arg("points"), py::arg("offsets"),
       py::arg("neighbour"), py::arg("skip") = py::none(), py::arg("plane") = py::none(),
-      py::arg("budget") = 1 << 16,
+      py::arg("budget") = 1 << 16, py::arg("first") = py::none(), py::arg("leaves") = false,
       "The subdivision of the proven loop and silhouette tests (rdmesh.topology.proven_cells) "
-      "for n owners, each from its first box: (failed (n,) uint8, lo (n, 3), hi (n, 3) of a "
-      "failed owner's unsettled box, boxes (n,) bounded per owner).");
+      "for n owners, each from its boxes (rows first[i]:first[i+1] of lo, hi; without first "
+      "one row each): (failed (n,) uint8, lo (n, 3), hi (n, 3) of a failed owner's unsettled "
+      "box, boxes (n,) bounded per owner), and with leaves also (leaf_first (n + 1,), "
+      "leaf_lo (L, 3), leaf_hi (L, 3)): each owner's boxes the gradient settled (none for a "
+      "failed owner).");
 
   m.def(
       "isolate_segment_roots",

@@ -225,7 +225,7 @@ def test_core_subdivision_fails_the_same_facets_and_cells_as_numpy(seed, text, n
     # Whether an owner fails does not depend on the order boxes are taken in,
     # so the core's depth-first run and the numpy level-by-level run must fail
     # exactly the same facets and cells.
-    from rdmesh.topology.proven_cells import proven_loop_test, proven_silhouette_test
+    from rdmesh.topology.proven_cells import prove_cells, proven_loop_test
 
     s, rdt, v, normals, geo, tree = _cell_case(text, seed, n)
     cells = np.arange(len(v))
@@ -234,8 +234,10 @@ def test_core_subdivision_fails_the_same_facets_and_cells_as_numpy(seed, text, n
         with pytest.MonkeyPatch.context() as mp:
             mp.setattr(intervals, "NATIVE", native)
             loop = proven_loop_test(s, v, geo, tree)
-            sil = proven_silhouette_test(s, rdt, v, normals, geo, tree, cells)
-        runs[native] = (loop, sil)
+            proof = prove_cells(s, rdt, v, normals, geo, tree, cells)
+            # The loop proof again, from the proven cells' leaves.
+            seeded = proven_loop_test(s, v, geo, tree, cells=proof)
+        runs[native] = (loop, proof.violations, seeded)
     for a, b in zip(runs[True], runs[False], strict=True):
         assert np.array_equal(np.sort(a.owners), np.sort(b.owners))
         # Each refinement point is on the surface (or reported as unplaced).
@@ -244,6 +246,39 @@ def test_core_subdivision_fails_the_same_facets_and_cells_as_numpy(seed, text, n
     # Two samples split the surface into two big patches, each with a silhouette.
     if n == 2:
         assert len(runs[True][1].owners) > 0
+
+
+@pytest.mark.parametrize("native", [True, False])
+@pytest.mark.parametrize(
+    "text",
+    ["(sqrt(x**2 + y**2) - 0.8)**2 + z**2 - 0.09", "x**2/1.44 + y**2 + z**2/0.49 - 1"],
+)
+def test_proven_cells_leaves_hold_every_surface_point_of_the_cell(text, native, monkeypatch):
+    # The loop proof starts from a proven cell's leaves, so they must hold
+    # all of the cell's part of the surface: put many points on the surface,
+    # each in the cell of its nearest sample, and find each in a leaf.
+    from rdmesh.topology.proven_cells import prove_cells
+
+    monkeypatch.setattr(intervals, "NATIVE", native)
+    s, rdt, v, normals, geo, tree = _cell_case(text, 1, 60)
+    proof = prove_cells(s, rdt, v, normals, geo, tree, np.arange(len(v)))
+    assert proof.seeded.sum() >= 10  # enough proven cells to test
+    rng = np.random.default_rng(5)
+    x = rng.uniform(-1.3, 1.3, (40000, 3))
+    for _ in range(30):  # Newton onto the surface
+        g = s.grad(x)
+        x = x - (s(x) / np.maximum(np.einsum("ij,ij->i", g, g), 1e-300))[:, None] * g
+    x = x[(np.abs(s(x)) < 1e-12) & (np.linalg.norm(x, axis=1) < 1.9)]
+    _, owner = tree.query(x)
+    keep = proof.seeded[owner]
+    x, owner = x[keep], owner[keep]
+    assert len(x) > 1000
+    for p in np.unique(owner):
+        lo = proof.lo[proof.first[p] : proof.first[p + 1]]
+        hi = proof.hi[proof.first[p] : proof.first[p + 1]]
+        pts = x[owner == p]
+        inside = np.all((pts[:, None] >= lo[None]) & (pts[:, None] <= hi[None]), axis=2)
+        assert inside.any(axis=1).all(), f"a surface point of proven cell {p} is in no leaf"
 
 
 def _prove_args(budget=1 << 16, **change):

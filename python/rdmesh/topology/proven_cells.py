@@ -125,12 +125,15 @@ def proven_loop_test(
     centres=None,
     memo: ProofMemo | None = None,
     rdt=None,
+    cells: CellProof | None = None,
 ) -> Violations:
     """T2 loops on every Voronoi facet, with proof (module docstring).
 
     ``tri`` and ``centres`` (the restricted facets and their surface centres)
     give the facets of complex edges their direction: across the chord
-    between the arc's two ends.
+    between the arc's two ends. With ``cells``, a facet whose cell (that of
+    its lower sample) is proven starts from that cell's leaves instead of
+    its own box: the way down to the surface is not taken again per facet.
     """
     if not isinstance(surface.f, Expression):
         raise TypeError("proven_voronoi_loop needs an expression surface")
@@ -160,11 +163,16 @@ def proven_loop_test(
         ok = row_norms(across) > TINY
         direction[rows[ok]] = across[ok] / row_norms(across[ok])[:, None]
 
-    plane = np.column_stack([normal, np.einsum("ij,ij->i", mid, normal)])
+    plane = np.column_stack([normal, np.einsum("ij,ij->i", mid, normal)])[live]
+    lo, hi = geometry.lo[live], geometry.hi[live]
+    first = None
+    floor = _floor(surface, lo, hi)
+    if cells is not None:
+        first, lo, hi = _seeds(cells, e[live, 0], lo, hi, plane)
     out = _prove(
-        "proven_voronoi_loop", surface, vertices, tree, geometry,
-        geometry.lo[live], geometry.hi[live], live,
-        cell=e[live, 0], direction=direction[live], skip=e[live, 1], plane=plane[live],
+        "proven_voronoi_loop", surface, vertices, tree, geometry, lo, hi, live,
+        cell=e[live, 0], direction=direction[live], floor=floor, skip=e[live, 1],
+        plane=plane, first=first,
     )  # fmt: skip
     if memo is not None:
         bad = np.zeros(len(e), bool)
@@ -174,7 +182,25 @@ def proven_loop_test(
     return out
 
 
-def proven_silhouette_test(
+@dataclass
+class CellProof:
+    """The silhouette proof of some Voronoi cells, and what it leaves for the
+    loop test: where each proven cell's part of the surface can be.
+
+    A cell is ``seeded`` when its proof held: every zero of ``f`` in the cell
+    then lies in its leaves (rows ``first[p]:first[p + 1]``), the boxes whose
+    gradient bounds settled the test, since every other box of its subdivision
+    was dropped for lying outside the cell or holding no zero.
+    """
+
+    violations: Violations
+    seeded: np.ndarray  # (n_samples,) bool
+    first: np.ndarray  # (n_samples + 1,) CSR of the leaves by sample id
+    lo: np.ndarray  # (L, 3)
+    hi: np.ndarray
+
+
+def prove_cells(
     surface: ImplicitSurface,
     rdt,
     vertices,
@@ -183,8 +209,9 @@ def proven_silhouette_test(
     tree,
     cells,
     memo: ProofMemo | None = None,
-) -> Violations:
-    """The silhouette test on the Voronoi cells of ``cells`` (sample ids), with proof."""
+) -> CellProof:
+    """The silhouette test on the Voronoi cells of ``cells`` (sample ids), with
+    proof, keeping the proven cells' leaves (:class:`CellProof`)."""
     cells = np.asarray(cells, np.int64)
     done = cells[:0]
     if memo is not None and len(memo.clean_cells):
@@ -199,71 +226,139 @@ def proven_silhouette_test(
     lo = np.clip(box[:, 0] - pad, c - R, c + R)
     hi = np.clip(box[:, 1] + pad, c - R, c + R)
 
-    out = _prove(
+    out, leaves = _prove(
         "proven_silhouette", surface, vertices, tree, geometry, lo, hi, cells,
-        cell=cells, direction=normals[cells],
+        cell=cells, direction=normals[cells], floor=_floor(surface, lo, hi), leaves=True,
     )  # fmt: skip
     if memo is not None:
         memo.clean_cells = np.union1d(done, np.setdiff1d(cells, out.owners))
         memo.cell_samples = len(vertices)
-    return out
+    # The leaves by sample id; failed cells have none and are not seeded.
+    n = len(vertices)
+    seeded = np.zeros(n, bool)
+    seeded[cells] = True
+    seeded[out.owners] = False
+    counts = np.zeros(n, np.int64)
+    counts[cells] = np.diff(leaves[0])
+    order = np.argsort(np.repeat(cells, np.diff(leaves[0])), kind="stable")
+    first = np.r_[0, np.cumsum(counts)]
+    return CellProof(out, seeded, first, leaves[1][order], leaves[2][order])
+
+
+def proven_silhouette_test(
+    surface: ImplicitSurface,
+    rdt,
+    vertices,
+    normals,
+    geometry: CellGeometry,
+    tree,
+    cells,
+    memo: ProofMemo | None = None,
+) -> Violations:
+    """The silhouette test on the Voronoi cells of ``cells`` (sample ids), with proof."""
+    return prove_cells(surface, rdt, vertices, normals, geometry, tree, cells, memo).violations
+
+
+def _floor(surface: ImplicitSurface, lo, hi) -> np.ndarray:
+    """Each owner's least box side: not below a fraction of its first box (its
+    facet's or cell's), nor below the absolute floor."""
+    return np.maximum(
+        PROOF_BOX_FLOOR * surface.radius, PROOF_BOX_RELATIVE * (hi - lo).max(axis=1, initial=0.0)
+    )
+
+
+def _seeds(cells: CellProof, host, lo, hi, plane):
+    """Each facet's first boxes, as (first, lo, hi): the leaves of its host's
+    cell that meet its box and plane (the facet lies in that cell, so its
+    part of the surface lies in them), or its own box where the host has none."""
+    n = len(host)
+    seeded = cells.seeded[host]
+    count = np.where(seeded, np.diff(cells.first)[host], 0)
+    owner = np.repeat(np.arange(n), count)
+    # Row of each owner's k-th leaf: its host's first row plus k.
+    k = np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count)
+    rows = cells.first[host[owner]] + k
+    blo = np.maximum(cells.lo[rows], lo[owner])
+    bhi = np.minimum(cells.hi[rows], hi[owner])
+    keep = np.all(blo <= bhi, axis=1) & _meets_plane(blo, bhi, plane[owner])
+    own = np.flatnonzero(~seeded)
+    owner = np.concatenate([owner[keep], own])
+    blo = np.concatenate([blo[keep], lo[own]])
+    bhi = np.concatenate([bhi[keep], hi[own]])
+    order = np.argsort(owner, kind="stable")
+    first = np.r_[0, np.cumsum(np.bincount(owner, minlength=n))]
+    return first, blo[order], bhi[order]
+
+
+def _meets_plane(lo, hi, plane) -> np.ndarray:
+    """Boxes that may touch the planes (normal, offset), with a margin for
+    rounding: a box that touches its plane is never dropped."""
+    a, b = _span(lo, hi, plane[:, :3])
+    c = plane[:, 3]
+    slack = 1e-12 * (np.abs(a) + np.abs(b) + np.abs(c)) + 1e-300
+    return (a <= c + slack) & (b >= c - slack)
 
 
 def _prove(
-    kind, surface, vertices, tree, geometry, lo, hi, owner, cell, direction, skip=None, plane=None
-) -> Violations:
-    """Subdivide each owner's box until every piece is irrelevant or settled.
+    kind, surface, vertices, tree, geometry, lo, hi, owner, cell, direction, floor,
+    skip=None, plane=None, first=None, leaves=False,
+):  # fmt: skip
+    """Subdivide each owner's boxes until every piece is irrelevant or settled.
 
     Owner ``i`` (row ``owner[i]`` of the facets, or a sample id) starts from
-    box ``lo[i], hi[i]``. A piece is irrelevant when it lies off ``plane[i]``
-    (normal and offset; facets only) or wholly outside the Voronoi cell of
-    ``cell[i]`` (leaving out neighbour ``skip[i]``), or when ``0`` is not in
-    the bounds of ``f``; it is settled when ``grad f . direction[i]`` keeps
-    one sign. An owner is a violation when a piece at its floor is neither.
+    boxes ``lo[r], hi[r]`` for ``r`` in ``first[i]:first[i + 1]`` (one box
+    each without ``first``). A piece is irrelevant when it lies off
+    ``plane[i]`` (normal and offset; facets only) or wholly outside the
+    Voronoi cell of ``cell[i]`` (leaving out neighbour ``skip[i]``), or when
+    ``0`` is not in the bounds of ``f``; it is settled when
+    ``grad f . direction[i]`` keeps one sign. An owner is a violation when a
+    piece no longer than ``floor[i]`` is neither.
+
+    Returns the violations, and with ``leaves`` also ``(first, lo, hi)``:
+    each owner's settled pieces (none for a violation).
     """
     expr = surface.f
     if not isinstance(expr, Expression):
         raise TypeError(f"{kind} needs an expression surface")
-    # Not below a fraction of the first box, nor below the absolute floor.
-    floor = np.maximum(
-        PROOF_BOX_FLOOR * surface.radius, PROOF_BOX_RELATIVE * (hi - lo).max(axis=1, initial=0.0)
-    )
+    if first is None:
+        first = np.arange(len(lo) + 1)
     program = native_program(expr)
     if program is None:
-        failed, blo, bhi = _prove_numpy(
-            expr, vertices, geometry, lo, hi, cell, direction, skip, plane, floor
+        failed, blo, bhi, kept = _prove_numpy(
+            expr, vertices, geometry, lo, hi, first, cell, direction, skip, plane, floor
         )
     else:
-        failed, blo, bhi, boxes = prove_boxes(
+        failed, blo, bhi, boxes, *kept = prove_boxes(
             *program, lo, hi, cell, direction, floor, vertices,
-            geometry.offsets, geometry.neighbour, skip, plane, BUDGET,
+            geometry.offsets, geometry.neighbour, skip, plane, BUDGET, first, leaves,
         )  # fmt: skip
         expr.count_boxes(int(boxes.sum()))
         failed = np.flatnonzero(failed)
         blo, bhi = blo[failed], bhi[failed]
     if not len(failed):
-        return _Proof(kind, 0, np.zeros((0, 3)), np.zeros(0), owners=np.zeros(0, np.int64))
-    start = 0.5 * (blo + bhi)
-    x, ok = _onto_surface(surface, start, (bhi - blo).max(axis=1))
-    dist, _ = tree.query(x[ok])
-    return _Proof(kind, len(failed), x[ok], dist, start[~ok], owners=np.asarray(owner)[failed])
+        out = _Proof(kind, 0, np.zeros((0, 3)), np.zeros(0), owners=np.zeros(0, np.int64))
+    else:
+        start = 0.5 * (blo + bhi)
+        x, ok = _onto_surface(surface, start, (bhi - blo).max(axis=1))
+        dist, _ = tree.query(x[ok])
+        out = _Proof(kind, len(failed), x[ok], dist, start[~ok], owners=np.asarray(owner)[failed])
+    return (out, tuple(kept)) if leaves else out
 
 
-def _prove_numpy(expr, vertices, geometry, lo, hi, cell, direction, skip, plane, floor):
+def _prove_numpy(expr, vertices, geometry, lo, hi, first, cell, direction, skip, plane, floor):
     """What the core's ``prove_boxes`` does, level by level in numpy, for
-    expressions the core cannot bound: (failed rows, their first unsettled boxes)."""
-    owner = np.arange(len(lo))
-    done = np.zeros(len(lo), bool)
+    expressions the core cannot bound: (failed rows, their first unsettled
+    boxes, and each owner's settled boxes as (first, lo, hi))."""
+    n = len(first) - 1
+    owner = np.repeat(np.arange(n), np.diff(first))
+    done = np.zeros(n, bool)
     bad_lo, bad_hi, bad_owner = [], [], []
+    leaf_lo, leaf_hi, leaf_owner = [], [], []
     while len(lo):
         # One unsettled box makes an owner a violation: drop the rest of it.
         keep = ~done[owner]
         if plane is not None:
-            a, b = _span(lo, hi, plane[owner, :3])
-            c = plane[owner, 3]
-            # A margin for rounding: a box must not be dropped if it may touch the plane.
-            slack = 1e-12 * (np.abs(a) + np.abs(b) + np.abs(c)) + 1e-300
-            keep &= (a <= c + slack) & (b >= c - slack)
+            keep &= _meets_plane(lo, hi, plane[owner])
         lo, hi, owner = lo[keep], hi[keep], owner[keep]
         keep = ~_outside_cell(
             lo, hi, cell[owner], vertices, geometry, None if skip is None else skip[owner]
@@ -273,8 +368,11 @@ def _prove_numpy(expr, vertices, geometry, lo, hi, cell, direction, skip, plane,
             break
         enc = expr.interval_gradient(lo, hi, mean_value=True)
         dlo, dhi = dot_bounds(enc.glo, enc.ghi, direction[owner])
-        open_ = (enc.lo <= 0) & (enc.hi >= 0)
-        open_ &= enc.undefined | ~((dlo > 0) | (dhi < 0))
+        settled = ~enc.undefined & ((dlo > 0) | (dhi < 0))
+        leaf_lo.append(lo[settled])
+        leaf_hi.append(hi[settled])
+        leaf_owner.append(owner[settled])
+        open_ = (enc.lo <= 0) & (enc.hi >= 0) & ~settled
         lo, hi, owner = lo[open_], hi[open_], owner[open_]
         side = hi - lo
         small = side.max(axis=1) <= floor[owner]
@@ -297,12 +395,23 @@ def _prove_numpy(expr, vertices, geometry, lo, hi, cell, direction, skip, plane,
         lo2[rows, axis] = cut
         lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi1, hi])
         owner = np.concatenate([owner, owner])
+    # Settled boxes by owner, none for a violation.
+    klo = np.concatenate([np.zeros((0, 3)), *leaf_lo])
+    khi = np.concatenate([np.zeros((0, 3)), *leaf_hi])
+    kown = np.concatenate([np.zeros(0, np.int64), *leaf_owner])
+    keep = ~done[kown]
+    order = np.argsort(kown[keep], kind="stable")
+    kept = (
+        np.r_[0, np.cumsum(np.bincount(kown[keep], minlength=n))],
+        klo[keep][order],
+        khi[keep][order],
+    )
     if not bad_lo:
-        return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3))
+        return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3)), kept
     blo, bhi, bown = (np.concatenate(x) for x in (bad_lo, bad_hi, bad_owner))
     # One violation per owner: its first unsettled box.
-    failed, first = np.unique(bown, return_index=True)
-    return failed, blo[first], bhi[first]
+    failed, at = np.unique(bown, return_index=True)
+    return failed, blo[at], bhi[at], kept
 
 
 @dataclass

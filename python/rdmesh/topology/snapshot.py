@@ -23,9 +23,10 @@ from .loops import LoopMemo
 from .proven import proven_edge_test
 from .proven_cells import (
     CellGeometry,
+    CellProof,
     ProofMemo,
+    prove_cells,
     proven_loop_test,
-    proven_silhouette_test,
 )
 from .tests import (
     SILHOUETTE_ANGLE,
@@ -104,6 +105,15 @@ class Snapshot:
         s = self.surface
         return CellGeometry.of(self.rdt, self.vertices, s.centre, s.radius)
 
+    @cached_property
+    def cell_proof(self) -> CellProof:
+        """The silhouette proof of the restricted vertices' cells, whose leaves
+        the loop proof starts from."""
+        return prove_cells(
+            self.surface, self.rdt, self.vertices, self.normals, self.cells, self.tree,
+            np.unique(self.facets(0)[0]), self.proofs,
+        )  # fmt: skip
+
     def test(
         self,
         kind: str,
@@ -146,13 +156,10 @@ class Snapshot:
         if kind == "proven_voronoi_loop":
             return proven_loop_test(
                 self.surface, self.vertices, self.cells, self.tree, tri, centres,
-                self.proofs, self.rdt,
+                self.proofs, self.rdt, self.cell_proof,
             )  # fmt: skip
         if kind == "proven_silhouette":
-            return proven_silhouette_test(
-                self.surface, self.rdt, self.vertices, self.normals, self.cells, self.tree,
-                np.unique(tri), self.proofs,
-            )  # fmt: skip
+            return self.cell_proof.violations
         if kind == "isolated":
             return isolated_test(self.surface, self.vertices, tri, self.tree)
         if kind == "silhouette":
