@@ -433,7 +433,8 @@ PYBIND11_MODULE(_rdt, m) {
   m.def(
       "isolate_segment_roots",
       [](const OpArray& ops, const InArray& consts, const InArray& a, const InArray& b,
-         double min_length, std::int64_t budget) {
+         double min_length, std::int64_t budget, std::optional<InArray> t0,
+         std::optional<InArray> t1) {
         const std::vector<rdmesh::IntervalInstruction> program = program_of(ops, consts);
         const std::vector<double> A = rows3(a, "a"), B = rows3(b, "b");
         if (A.size() != B.size()) throw std::invalid_argument("a and b must have the same shape");
@@ -443,11 +444,25 @@ PYBIND11_MODULE(_rdt, m) {
         if (!(min_length > 0) || !std::isfinite(min_length))
           throw std::invalid_argument("min_length must be positive and finite");
         if (budget < 1) throw std::invalid_argument("budget must be at least 1");
+        const std::size_t n_seg = A.size() / 3;
+        std::vector<double> T0, T1;
+        if (t0.has_value() != t1.has_value())
+          throw std::invalid_argument("t0 and t1 go together");
+        if (t0) {
+          T0 = copy_of<double>(*t0);
+          T1 = copy_of<double>(*t1);
+          if (t0->ndim() != 1 || t1->ndim() != 1 || T0.size() != n_seg || T1.size() != n_seg)
+            throw std::invalid_argument("t0 and t1 must have shape (n,), one per segment");
+          for (std::size_t i = 0; i < n_seg; ++i)
+            if (!(0.0 <= T0[i] && T0[i] <= T1[i] && T1[i] <= 1.0))
+              throw std::invalid_argument("pieces must have 0 <= t0 <= t1 <= 1");
+        }
         rdmesh::SegmentRoots r;
         {
           py::gil_scoped_release release;
-          r = rdmesh::isolate_segment_roots(program, A.data(), B.data(), A.size() / 3, min_length,
-                                            static_cast<std::size_t>(budget));
+          r = rdmesh::isolate_segment_roots(program, A.data(), B.data(),
+                                            t0 ? T0.data() : nullptr, t0 ? T1.data() : nullptr,
+                                            n_seg, min_length, static_cast<std::size_t>(budget));
         }
         auto n = [](const auto& v) { return std::vector<py::ssize_t>{static_cast<py::ssize_t>(v.size())}; };
         return py::make_tuple(to_numpy(r.found_segment, n(r.found_segment)),
@@ -458,9 +473,53 @@ PYBIND11_MODULE(_rdt, m) {
                               to_numpy(r.pending_hi, n(r.pending_hi)), r.boxes);
       },
       py::arg("ops"), py::arg("consts"), py::arg("a"), py::arg("b"), py::arg("min_length"),
-      py::arg("budget") = 1 << 16,
-      "Proven root isolation on segments [a_i, b_i] (rdmesh.sampling.isolate): "
-      "(found segment, t0, t1, pending segment, t0, t1, boxes), by segment, then t0.");
+      py::arg("budget") = 1 << 16, py::arg("t0") = py::none(), py::arg("t1") = py::none(),
+      "Proven root isolation on segments [a_i, b_i] (rdmesh.sampling.isolate), each "
+      "on t in [t0_i, t1_i] ([0, 1] without t0, t1): (found segment, t0, t1, pending "
+      "segment, t0, t1, boxes), by segment, then t0.");
+
+  m.def(
+      "segment_pieces",
+      [](const InArray& a, const InArray& b, const IdArray& host, const IdArray& first,
+         const InArray& lo, const InArray& hi, double slack) {
+        const std::vector<double> A = rows3(a, "a"), B = rows3(b, "b");
+        const std::vector<double> L = rows3(lo, "lo"), H = rows3(hi, "hi");
+        if (A.size() != B.size()) throw std::invalid_argument("a and b must have the same shape");
+        if (L.size() != H.size()) throw std::invalid_argument("lo and hi must have the same shape");
+        const std::size_t n = A.size() / 3, boxes = L.size() / 3;
+        if (host.ndim() != 1 || static_cast<std::size_t>(host.shape(0)) != n)
+          throw std::invalid_argument("host must have shape (n,), one per segment");
+        if (first.ndim() != 1 || first.shape(0) < 1)
+          throw std::invalid_argument("first must have shape (k + 1,)");
+        const std::vector<std::int64_t> S = copy_of<std::int64_t>(host),
+                                        F = copy_of<std::int64_t>(first);
+        bool ok = F.front() == 0 && F.back() == static_cast<std::int64_t>(boxes);
+        for (std::size_t i = 1; i < F.size(); ++i) ok = ok && F[i - 1] <= F[i];
+        if (!ok) throw std::invalid_argument("first must rise from 0 to the number of boxes");
+        const auto k = static_cast<std::int64_t>(F.size() - 1);
+        for (std::int64_t h : S)
+          if (h < -1 || h >= k) throw std::invalid_argument("host ids must be -1 or below k");
+        for (double x : A)
+          if (!std::isfinite(x)) throw std::invalid_argument("segment ends must be finite");
+        for (double x : B)
+          if (!std::isfinite(x)) throw std::invalid_argument("segment ends must be finite");
+        if (!(slack >= 0) || !std::isfinite(slack))
+          throw std::invalid_argument("slack must be finite and not negative");
+        rdmesh::SegmentPieces r;
+        {
+          py::gil_scoped_release release;
+          r = rdmesh::segment_pieces(A.data(), B.data(), S.data(), n, F.data(), L.data(), H.data(),
+                                     slack);
+        }
+        const auto m_ = static_cast<py::ssize_t>(r.segment.size());
+        return py::make_tuple(to_numpy(r.segment, {m_}), to_numpy(r.t0, {m_}),
+                              to_numpy(r.t1, {m_}));
+      },
+      py::arg("a"), py::arg("b"), py::arg("host"), py::arg("first"), py::arg("lo"),
+      py::arg("hi"), py::arg("slack"),
+      "The parts of segments [a_i, b_i] inside the boxes rows first[h]:first[h+1] of lo, hi "
+      "(h = host[i]; -1: the whole segment), widened by slack in t, cut to [0, 1], and "
+      "merged where they meet: (segment, t0, t1), by segment, then t0.");
 
   py::class_<RestrictedDelaunay>(m, "RestrictedDelaunay")
       .def(py::init([](const InArray& centre, double radius) {

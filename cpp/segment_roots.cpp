@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "on_cores.hpp"
 
@@ -19,7 +20,8 @@ int sign_of(const BoxBounds& e) {
 }
 
 // Segments [begin, end): results in `out`, in segment order.
-void isolate_range(const double* A, const double* B, std::size_t begin, std::size_t end,
+void isolate_range(const double* A, const double* B, const double* T0, const double* T1,
+                   std::size_t begin, std::size_t end,
                    double min_length, std::size_t budget, BoxEvaluator& piece,
                    BoxEvaluator& point, SegmentRoots& out) {
   std::vector<Piece> stack;
@@ -34,7 +36,7 @@ void isolate_range(const double* A, const double* B, std::size_t begin, std::siz
     }
     const double length = std::sqrt(length2);
     std::size_t used = 0;
-    stack.assign(1, Piece{0.0, 1.0});
+    stack.assign(1, T0 ? Piece{T0[i], T1[i]} : Piece{0.0, 1.0});
     while (!stack.empty()) {
       const Piece p = stack.back();
       stack.pop_back();
@@ -95,8 +97,9 @@ void append(SegmentRoots& to, const SegmentRoots& from) {
 }  // namespace
 
 SegmentRoots isolate_segment_roots(const std::vector<IntervalInstruction>& program,
-                                   const double* a, const double* b, std::size_t n,
-                                   double min_length, std::size_t budget) {
+                                   const double* a, const double* b, const double* t0,
+                                   const double* t1, std::size_t n, double min_length,
+                                   std::size_t budget) {
   check_interval_program(program);
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   std::vector<SegmentRoots> parts(chunks);
@@ -107,13 +110,60 @@ SegmentRoots isolate_segment_roots(const std::vector<IntervalInstruction>& progr
       chunks,
       [&] { return Worker{BoxEvaluator(program, true, false), BoxEvaluator(program, false, false)}; },
       [&](Worker& w, std::size_t c) {
-        isolate_range(a, b, c * kChunk, std::min(n, (c + 1) * kChunk), min_length, budget,
+        isolate_range(a, b, t0, t1, c * kChunk, std::min(n, (c + 1) * kChunk), min_length, budget,
                       w.piece, w.point, parts[c]);
       });
   // Chunks in order: segments in order, and pieces by t0 within a segment
   // (depth first, lower half first).
   SegmentRoots out;
   for (const auto& p : parts) append(out, p);
+  return out;
+}
+
+SegmentPieces segment_pieces(const double* a, const double* b, const std::int64_t* host,
+                             std::size_t n, const std::int64_t* first, const double* lo,
+                             const double* hi, double slack) {
+  SegmentPieces out;
+  std::vector<Piece> parts;
+  const double inf = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::int64_t h = host[i];
+    if (h < 0) {
+      out.segment.push_back(static_cast<std::int64_t>(i));
+      out.t0.push_back(0.0);
+      out.t1.push_back(1.0);
+      continue;
+    }
+    parts.clear();
+    const double* p = a + 3 * i;
+    double d[3];
+    for (int k = 0; k < 3; ++k) d[k] = b[3 * i + k] - p[k];
+    for (std::int64_t r = first[h]; r < first[h + 1]; ++r) {
+      double t0 = -inf, t1 = inf;
+      for (int k = 0; k < 3 && t0 <= t1; ++k) {
+        const double l = lo[3 * r + k], u = hi[3 * r + k];
+        if (d[k] == 0.0) {  // parallel to the slab: inside it or not at all
+          if (p[k] < l || p[k] > u) t0 = inf;
+          continue;
+        }
+        const double x = (l - p[k]) / d[k], y = (u - p[k]) / d[k];
+        t0 = std::max(t0, std::min(x, y));
+        t1 = std::min(t1, std::max(x, y));
+      }
+      t0 = std::max(t0 - slack, 0.0);
+      t1 = std::min(t1 + slack, 1.0);
+      if (t0 <= t1) parts.push_back(Piece{t0, t1});
+    }
+    std::sort(parts.begin(), parts.end(),
+              [](const Piece& x, const Piece& y) { return x.t0 < y.t0; });
+    for (std::size_t k = 0; k < parts.size();) {
+      Piece m = parts[k];
+      for (++k; k < parts.size() && parts[k].t0 <= m.t1; ++k) m.t1 = std::max(m.t1, parts[k].t1);
+      out.segment.push_back(static_cast<std::int64_t>(i));
+      out.t0.push_back(m.t0);
+      out.t1.push_back(m.t1);
+    }
+  }
   return out;
 }
 

@@ -196,6 +196,39 @@ def test_proven_loop_test_finds_a_loop_inside_a_facet():
     assert proven_loop_test(s, v, geo, tree).count == 0
 
 
+@pytest.mark.parametrize(
+    "text",
+    ["(x**2 + y**2 + z**2 + 1 - 0.16)**2 - 4*(x**2 + y**2)", "x**4 + y**4 + z**4 - 1"],
+)
+def test_proven_edge_test_gives_the_same_counts_from_the_proven_cells(text):
+    # Searching a Voronoi edge only inside a proven cell's leaves must find
+    # exactly the crossings of the whole edge: both counts are proven.
+    from rdmesh.sampling import isolate
+    from rdmesh.topology import proven
+    from rdmesh.topology.proven_cells import prove_cells
+
+    rng = np.random.default_rng(2)
+    x = rng.uniform(-1.5, 1.5, (60000, 3))
+    s = _surface(text, 2.0)
+    x = x[np.argsort(np.abs(s(x)))[:1500]]
+    s, rdt, v, n, geo, tree = _cells(text, x)
+    cells = prove_cells(s, rdt, v, n, geo, tree, np.arange(len(v)))
+    assert cells.seeded.mean() > 0.5
+    counts = []
+    real = isolate.isolate_roots
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(proven, "isolate_roots", lambda *a: counts.append(real(*a)) or counts[-1])
+        for seeded in (None, cells):
+            proven.proven_edge_test(
+                s, rdt, v, np.zeros((0, 3), np.int64), np.zeros((0, 3)), seeded
+            )
+    whole, part = counts
+    both = whole.resolved & part.resolved
+    assert both.mean() > 0.99 and whole.count.sum() > 1000
+    assert np.array_equal(whole.count[both], part.count[both])
+    assert part.boxes < whole.boxes  # and with less work
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     seed=st.integers(0, 2**31 - 1),

@@ -352,7 +352,7 @@ def test_core_isolation_finds_the_pieces_of_the_numpy_bisection(text, seed):
     # Found and pending pieces are the leaves of one bisection tree, so the
     # core (depth first, over the cores) and numpy (level by level) must give
     # exactly the same ones, with the same evaluator's bounds.
-    from rdmesh.sampling.isolate import _isolate_numpy, isolate_roots
+    from rdmesh.sampling.isolate import isolate_roots
 
     expr = parse_expression(text)
     rng = np.random.default_rng(seed)
@@ -365,14 +365,88 @@ def test_core_isolation_finds_the_pieces_of_the_numpy_bisection(text, seed):
     t /= np.linalg.norm(t, axis=1)[:, None]
     a = np.concatenate([a, n - 0.3 * t, [[0.3, 0.2, 0.1]]])
     b = np.concatenate([b, n + 0.3 * t, [[0.3, 0.2, 0.1]]])
-    got = isolate_roots(expr, a, b, 1e-7)
-    ref = _isolate_numpy(expr, a, b, 1e-7)
-    for field in ("segment", "lo", "hi", "count", "resolved", "pending_segment", "pending_lo",
-                  "pending_hi", "boxes"):  # fmt: skip
-        assert np.array_equal(getattr(got, field), getattr(ref, field)), field
-    assert got.count.sum() > 0
+    # Whole segments, and two pieces of each (the middle fifth left out).
+    m = len(a)
+    pieces = (np.r_[np.arange(m), np.arange(m)], np.r_[np.zeros(m), np.full(m, 0.6)],
+              np.r_[np.full(m, 0.4), np.ones(m)])  # fmt: skip
+    for part in (None, pieces):
+        got = isolate_roots(expr, a, b, 1e-7, part)
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(intervals, "NATIVE", False)
+            ref = isolate_roots(expr, a, b, 1e-7, part)
+        for field in ("segment", "lo", "hi", "count", "resolved", "pending_segment",
+                      "pending_lo", "pending_hi", "boxes"):  # fmt: skip
+            assert np.array_equal(getattr(got, field), getattr(ref, field)), field
+        assert got.count.sum() > 0
+    # The pieces hold the roots of the whole segments outside the middle fifth:
+    # at least those bracketed wholly outside it, at most those bracketed
+    # partly outside it.
+    whole = isolate_roots(expr, a, b, 1e-7)
+    out = np.bincount(whole.segment[(whole.hi <= 0.4) | (whole.lo >= 0.6)], minlength=m)
+    part = np.bincount(whole.segment[(whole.lo <= 0.4) | (whole.hi >= 0.6)], minlength=m)
+    both = whole.resolved & got.resolved
+    assert np.all((out <= got.count)[both]) and np.all((got.count <= part)[both])
+    assert (got.count < whole.count).any()  # roots in the middle were left out
+    got = whole
     if text.startswith("x**2 + y**2"):
         assert not got.resolved[400:420].all()  # the tangent segments stay pending
+
+
+def test_segment_pieces_cover_the_segments_in_the_boxes_without_overlap():
+    from rdmesh.core import segment_pieces
+
+    rng = np.random.default_rng(3)
+    n, k = 300, 40
+    a = rng.uniform(-1, 1, (n, 3))
+    b = a + rng.normal(scale=0.6, size=(n, 3))
+    b[:10, 2] = a[:10, 2]  # parallel to the z slabs
+    lo = rng.uniform(-1, 0.8, (k, 3))
+    hi = lo + rng.uniform(0.01, 0.5, (k, 3))
+    first = np.r_[0, np.sort(rng.integers(0, k, 9)), k]  # 10 groups of boxes
+    host = rng.integers(-1, 10, n)
+    seg, t0, t1 = segment_pieces(a, b, host, first, lo, hi, 1e-9)
+    assert np.all((t0 >= 0) & (t0 <= t1) & (t1 <= 1))
+    # By segment, then t0, and a segment's pieces do not meet.
+    assert np.all(np.diff(seg) >= 0)
+    same = seg[1:] == seg[:-1]
+    assert np.all(t1[:-1][same] < t0[1:][same])
+    # A hostless segment is one whole piece.
+    for i in np.flatnonzero(host < 0):
+        assert np.array_equal(np.c_[t0, t1][seg == i], [[0.0, 1.0]])
+    # Every point of a segment inside one of its host's boxes is in a piece,
+    # and every piece's middle is within its slack of such a box.
+    t = np.linspace(0, 1, 2001)
+    for i in np.flatnonzero(host >= 0)[:120]:
+        x = a[i] + t[:, None] * (b[i] - a[i])
+        box = slice(first[host[i]], first[host[i] + 1])
+        inside = np.all((x[:, None] >= lo[box]) & (x[:, None] <= hi[box]), axis=2).any(axis=1)
+        mine = seg == i
+        covered = ((t[:, None] >= t0[mine]) & (t[:, None] <= t1[mine])).any(axis=1)
+        assert np.all(covered[inside])
+        mid = a[i] + (0.5 * (t0[mine] + t1[mine]))[:, None] * (b[i] - a[i])
+        near = np.all((mid[:, None] >= lo[box] - 1e-6) & (mid[:, None] <= hi[box] + 1e-6), axis=2)
+        assert near.any(axis=1).all()
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        ({"host": np.full(2, 5)}, "host ids"),
+        ({"host": np.zeros(3, np.int64)}, "one per segment"),
+        ({"first": np.array([0, 3])}, "rise from 0"),
+        ({"a": np.full((2, 3), np.inf)}, "finite"),
+        ({"slack": -1.0}, "slack"),
+    ],
+)
+def test_segment_pieces_rejects_bad_input(change, match):
+    from rdmesh.core import segment_pieces
+
+    args = {"a": np.zeros((2, 3)), "b": np.ones((2, 3)), "host": np.array([0, -1]),
+            "first": np.array([0, 1]), "lo": np.zeros((1, 3)), "hi": np.ones((1, 3)),
+            "slack": 0.0}  # fmt: skip
+    args.update(change)
+    with pytest.raises(ValueError, match=match):
+        segment_pieces(**args)
 
 
 @pytest.mark.parametrize(
@@ -383,6 +457,10 @@ def test_core_isolation_finds_the_pieces_of_the_numpy_bisection(text, seed):
         ({"min_length": 0.0}, "min_length"),
         ({"budget": 0}, "budget"),
         ({"ops": np.array([[1, 5, -1]], np.int32), "consts": np.zeros(1)}, "axis"),
+        ({"t0": np.zeros(1)}, "together"),
+        ({"t0": np.zeros(2), "t1": np.ones(2)}, "one per segment"),
+        ({"t0": np.full(1, 0.5), "t1": np.full(1, 0.2)}, "t0 <= t1"),
+        ({"t0": np.zeros(1), "t1": np.full(1, 1.5)}, "t1 <= 1"),
     ],
 )
 def test_core_isolation_rejects_bad_input(change, match):

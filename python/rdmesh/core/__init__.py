@@ -38,6 +38,7 @@ from ._rdt import (
     prove_boxes,
     sample_segments,
     scan_samples,
+    segment_pieces,
     select_independent,
     trim_heap,
 )
@@ -58,6 +59,7 @@ __all__ = [
     "prove_boxes",
     "sample_segments",
     "scan_samples",
+    "segment_pieces",
     "select_independent",
     "trim_heap",
 ]

@@ -43,6 +43,8 @@ def isolate_segment_roots(
     b: npt.ArrayLike,
     min_length: float,
     budget: int = 65536,
+    t0: npt.ArrayLike | None = None,
+    t1: npt.ArrayLike | None = None,
 ) -> tuple[
     npt.NDArray[np.int64],
     npt.NDArray[np.float64],
@@ -66,12 +68,18 @@ def prove_boxes(
     skip: npt.ArrayLike | None = None,
     plane: npt.ArrayLike | None = None,
     budget: int = 65536,
-) -> tuple[
-    npt.NDArray[np.uint8],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.int64],
-]: ...
+    first: npt.ArrayLike | None = None,
+    leaves: bool = False,
+) -> tuple: ...
+def segment_pieces(
+    a: npt.ArrayLike,
+    b: npt.ArrayLike,
+    host: npt.ArrayLike,
+    first: npt.ArrayLike,
+    lo: npt.ArrayLike,
+    hi: npt.ArrayLike,
+    slack: float,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 def evaluate_intervals(
     ops: npt.ArrayLike,
     consts: npt.ArrayLike,

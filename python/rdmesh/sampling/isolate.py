@@ -67,7 +67,13 @@ class Isolation:
     boxes: int
 
 
-def isolate_roots(expr: Expression, a: np.ndarray, b: np.ndarray, min_length: float) -> Isolation:
+def isolate_roots(
+    expr: Expression,
+    a: np.ndarray,
+    b: np.ndarray,
+    min_length: float,
+    pieces: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> Isolation:
     """Isolate every root of ``f`` on the segments ``[a[i], b[i]]``, with proof.
 
     Parameters
@@ -78,29 +84,44 @@ def isolate_roots(expr: Expression, a: np.ndarray, b: np.ndarray, min_length: fl
     min_length : float
         Pieces shorter than this are not halved again: if unsettled, they are
         reported as pending and their segment as unresolved.
+    pieces : (segment, t0, t1), optional
+        Search only these pieces ``[t0, t1]`` of the segments (at most one
+        per segment and place: they must not overlap); the caller has proven
+        that the rest holds no root. Default: every segment whole.
 
     Returns
     -------
     Isolation
+        Brackets, counts and pending pieces of the ``n`` segments.
     """
     a = np.asarray(a, np.float64).reshape(-1, 3)
     b = np.asarray(b, np.float64).reshape(-1, 3)
+    n = len(a)
+    if pieces is None:
+        seg, t0, t1 = np.arange(n), np.zeros(n), np.ones(n)
+        pa, pb = a, b
+    else:
+        seg, t0, t1 = (np.asarray(x) for x in pieces)
+        pa, pb = a[seg], b[seg]
     program = native_program(expr)
     if program is None:
-        return _isolate_numpy(expr, a, b, min_length)
-    fs, flo, fhi, ps, plo, phi, boxes = isolate_segment_roots(*program, a, b, min_length, BUDGET)
-    expr.count_boxes(boxes)
-    return _isolation(len(a), fs, flo, fhi, ps, plo, phi, boxes)
+        fs, flo, fhi, ps, plo, phi, boxes = _isolate_numpy(expr, pa, pb, t0, t1, min_length)
+    else:
+        fs, flo, fhi, ps, plo, phi, boxes = isolate_segment_roots(
+            *program, pa, pb, min_length, BUDGET, t0, t1
+        )
+        expr.count_boxes(boxes)
+    return _isolation(n, seg[fs], flo, fhi, seg[ps], plo, phi, boxes)
 
 
-def _isolate_numpy(expr: Expression, a: np.ndarray, b: np.ndarray, min_length: float):
-    """:func:`isolate_roots` level by level in numpy, for expressions the core
-    cannot bound (and to check the core against)."""
+def _isolate_numpy(expr: Expression, a, b, t0, t1, min_length: float):
+    """What the core's ``isolate_segment_roots`` does, level by level in numpy,
+    for expressions the core cannot bound (and to check the core against)."""
     n = len(a)
     d = b - a
     length = np.sqrt(np.einsum("ij,ij->i", d, d))
     seg = np.arange(n)
-    t0, t1 = np.zeros(n), np.ones(n)
+    t0, t1 = np.array(t0, np.float64), np.array(t1, np.float64)
     found: list[tuple[np.ndarray, ...]] = []
     pending: list[tuple[np.ndarray, ...]] = []
     boxes = 0
@@ -139,7 +160,7 @@ def _isolate_numpy(expr: Expression, a: np.ndarray, b: np.ndarray, min_length: f
         t1 = np.column_stack([mid, t1[go]]).ravel()
     fs, flo, fhi = (np.concatenate(c) for c in zip(*found, strict=True)) if found else _none(3)
     ps, plo, phi = (np.concatenate(c) for c in zip(*pending, strict=True)) if pending else _none(3)
-    return _isolation(n, fs, flo, fhi, ps, plo, phi, boxes)
+    return fs, flo, fhi, ps, plo, phi, boxes
 
 
 def _isolation(n, fs, flo, fhi, ps, plo, phi, boxes) -> Isolation:

@@ -22,11 +22,16 @@ import numpy as np
 
 from .._tol import PROOF_FLOOR, ROOT_ATOL
 from .._vectors import row_index, row_norms
+from ..core import segment_pieces
 from ..sampling.isolate import isolate_roots
 from ..sampling.roots import refine_brackets
 from ..surfaces.expressions import Expression
 from ..surfaces.oracle import ImplicitSurface
+from .proven_cells import CellProof
 from .tests import Violations
+
+#: Slack, in t, around a segment's part inside a leaf box (covers rounding).
+_SLACK = 1e-9
 
 
 def proven_edge_test(
@@ -35,6 +40,7 @@ def proven_edge_test(
     vertices: np.ndarray,
     tri: np.ndarray,
     centres: np.ndarray,
+    cells: CellProof | None = None,
 ) -> Violations:
     """T1 on every Voronoi edge, by interval root isolation.
 
@@ -44,6 +50,11 @@ def proven_edge_test(
     rdt : the core.
     vertices : (n, 3) the samples.
     tri, centres : the restricted facets (any vertex order) and their surface centres.
+    cells : CellProof, optional
+        Proven Voronoi cells: a Voronoi edge lies in the cell of each of its
+        facet's vertices, so where one of them is proven, only the parts of
+        the edge inside that cell's leaves can hold a crossing, and only
+        those are searched.
 
     Returns
     -------
@@ -57,7 +68,8 @@ def proven_edge_test(
     R = surface.radius
     all_tri, seg = rdt.all_facets()
     a, b = seg[:, 0], seg[:, 1]
-    iso = isolate_roots(expr, a, b, PROOF_FLOOR * R)
+    pieces = None if cells is None else _pieces(cells, all_tri, a, b)
+    iso = isolate_roots(expr, a, b, PROOF_FLOOR * R, pieces)
     # Position of each facet among the restricted ones, -1 if not restricted.
     where = row_index(all_tri, np.sort(tri, axis=1))
     restricted = where >= 0
@@ -86,3 +98,19 @@ def proven_edge_test(
     stuck = a[iso.pending_segment] + mid[:, None] * (b - a)[iso.pending_segment]
     n_bad = int((multi | missed | false).sum()) + int((~ok).sum())
     return Violations("proven_voronoi_edge", n_bad, centre, rad, stuck)
+
+
+def _pieces(cells: CellProof, tri: np.ndarray, a: np.ndarray, b: np.ndarray):
+    """The parts ``(segment, t0, t1)`` of the Voronoi edges ``a b`` (dual to
+    the facets ``tri``) that can hold a crossing.
+
+    An edge with a proven cell among its facet's vertices (the one with the
+    fewest leaves) can cross the surface only inside that cell's leaves: its
+    parts in them, widened by ``_SLACK`` and merged where they meet (so no
+    crossing is counted twice). Other edges are searched whole.
+    """
+    leaves = np.diff(cells.first)
+    cost = np.where(cells.seeded[tri], leaves[tri], np.iinfo(np.int64).max)
+    host = tri[np.arange(len(tri)), np.argmin(cost, axis=1)]
+    host = np.where(cells.seeded[host], host, -1)
+    return segment_pieces(a, b, host, cells.first, cells.lo, cells.hi, _SLACK)

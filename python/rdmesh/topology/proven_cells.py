@@ -199,6 +199,14 @@ class CellProof:
     lo: np.ndarray  # (L, 3)
     hi: np.ndarray
 
+    def leaves_of(self, host: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every (i, leaf row) pair for the leaves of the cells ``host[i]``
+        (none where a cell is not seeded), by ``i``."""
+        count = np.where(self.seeded[host], np.diff(self.first)[host], 0)
+        i = np.repeat(np.arange(len(host)), count)
+        k = np.arange(len(i)) - np.repeat(np.cumsum(count) - count, count)
+        return i, self.first[host[i]] + k
+
 
 def prove_cells(
     surface: ImplicitSurface,
@@ -273,11 +281,7 @@ def _seeds(cells: CellProof, host, lo, hi, plane):
     part of the surface lies in them), or its own box where the host has none."""
     n = len(host)
     seeded = cells.seeded[host]
-    count = np.where(seeded, np.diff(cells.first)[host], 0)
-    owner = np.repeat(np.arange(n), count)
-    # Row of each owner's k-th leaf: its host's first row plus k.
-    k = np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count)
-    rows = cells.first[host[owner]] + k
+    owner, rows = cells.leaves_of(host)
     blo = np.maximum(cells.lo[rows], lo[owner])
     bhi = np.minimum(cells.hi[rows], hi[owner])
     keep = np.all(blo <= bhi, axis=1) & _meets_plane(blo, bhi, plane[owner])

@@ -152,7 +152,9 @@ class Snapshot:
                 probes, self.tree, self.memo,
             )  # fmt: skip
         if kind == "proven_voronoi_edge":
-            return proven_edge_test(self.surface, self.rdt, self.vertices, tri, centres)
+            return proven_edge_test(
+                self.surface, self.rdt, self.vertices, tri, centres, self.cell_proof
+            )
         if kind == "proven_voronoi_loop":
             return proven_loop_test(
                 self.surface, self.vertices, self.cells, self.tree, tri, centres,
