@@ -31,15 +31,27 @@ bool meets_plane(const Box& b, const double* plane) {
 void prove_owner(std::size_t i, const BoxProofInput& in, BoxEvaluator& eval,
                  std::vector<Box>& stack, std::vector<CellPlane>& planes, BoxProofResult& out,
                  std::vector<Box>* leaves) {
-  // The first boxes in reverse, so that the first is taken first.
+  Box own;
+  for (int k = 0; k < 3; ++k) {
+    own.lo[k] = in.lo[3 * i + k];
+    own.hi[k] = in.hi[3 * i + k];
+  }
   stack.clear();
-  for (std::int64_t r = in.first[i + 1] - 1; r >= in.first[i]; --r) {
-    Box b;
-    for (int k = 0; k < 3; ++k) {
-      b.lo[k] = in.lo[3 * r + k];
-      b.hi[k] = in.hi[3 * r + k];
+  const std::int64_t c = in.cell[i];
+  if (in.seeded && in.seeded[c]) {
+    // The seeds cut to the owner's box, in reverse: the first is taken first.
+    for (std::int64_t r = in.seed_first[c + 1] - 1; r >= in.seed_first[c]; --r) {
+      Box b;
+      bool empty = false;
+      for (int k = 0; k < 3; ++k) {
+        b.lo[k] = std::max(in.seed_lo[3 * r + k], own.lo[k]);
+        b.hi[k] = std::min(in.seed_hi[3 * r + k], own.hi[k]);
+        empty = empty || b.lo[k] > b.hi[k];
+      }
+      if (!empty) stack.push_back(b);
     }
-    stack.push_back(b);
+  } else {
+    stack.push_back(own);
   }
   const std::int64_t skip = in.skip ? in.skip[i] : -1;
   // The owner's bisectors once, not per box.

@@ -1,6 +1,7 @@
 // The subdivision behind the proven loop and silhouette tests
 // (rdmesh.topology.proven_cells): each owner (a Voronoi facet or cell) starts
-// from its boxes (one or more, or none), and a box is dropped when it cannot meet the owner's region
+// from its box (or from the leaves of an earlier run on its cell, cut to
+// that box), and a box is dropped when it cannot meet the owner's region
 // (off the facet's plane, or wholly outside the sample's Voronoi cell), when
 // 0 is not in the bounds of f over it, or when grad f . d keeps one sign over
 // it (settled); other boxes are halved along their longest side.  An owner
@@ -22,9 +23,8 @@ namespace rdmesh {
 
 struct BoxProofInput {
   std::size_t n = 0;                      // owners
-  const std::int64_t* first = nullptr;    // (n + 1,) owner i's boxes: rows first[i]..first[i+1]
-  const double* lo = nullptr;             // (first[n], 3) first boxes
-  const double* hi = nullptr;             // (first[n], 3)
+  const double* lo = nullptr;             // (n, 3) first boxes
+  const double* hi = nullptr;             // (n, 3)
   const std::int64_t* cell = nullptr;     // (n,) the sample whose Voronoi cell holds the region
   const std::int64_t* skip = nullptr;     // (n,) a neighbour to leave out, or null
   const double* direction = nullptr;      // (n, 3) d of the settling test
@@ -35,6 +35,13 @@ struct BoxProofInput {
   const std::int64_t* neighbour = nullptr;
   std::size_t budget = 0;                 // boxes bounded per owner at most
   bool leaves = false;                    // keep the boxes the gradient settled
+  // Seeds, or null: where seeded[cell[i]], owner i starts instead from the
+  // boxes rows seed_first[c]..seed_first[c+1] of seed_lo, seed_hi (c =
+  // cell[i]; an earlier run's leaves of that cell) cut to its first box.
+  const std::uint8_t* seeded = nullptr;
+  const std::int64_t* seed_first = nullptr;
+  const double* seed_lo = nullptr;
+  const double* seed_hi = nullptr;
 };
 
 struct BoxProofResult {

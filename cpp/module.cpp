@@ -338,30 +338,13 @@ PYBIND11_MODULE(_rdt, m) {
          const IdArray& cell, const InArray& direction, const InArray& floor,
          const InArray& points, const IdArray& offsets, const IdArray& neighbour,
          std::optional<IdArray> skip, std::optional<InArray> plane, std::int64_t budget,
-         std::optional<IdArray> first, bool leaves) {
+         bool leaves, std::optional<py::tuple> seeds) {
         const std::vector<rdmesh::IntervalInstruction> program = program_of(ops, consts);
         const std::vector<double> L = rows3(lo, "lo"), H = rows3(hi, "hi");
         const std::vector<double> P = rows3(points, "points"), D = rows3(direction, "direction");
-        const std::size_t rows = L.size() / 3, np_ = P.size() / 3;
-        if (H.size() != L.size()) throw std::invalid_argument("lo and hi must have the same shape");
-        std::vector<std::int64_t> start;
-        if (first) {
-          if (first->ndim() != 1 || first->shape(0) < 1)
-            throw std::invalid_argument("first must have shape (n + 1,)");
-          start = copy_of<std::int64_t>(*first);
-          bool ok = start.front() == 0 && start.back() == static_cast<std::int64_t>(rows);
-          for (std::size_t i = 1; i < start.size(); ++i) ok = ok && start[i - 1] <= start[i];
-          if (!ok)
-            throw std::invalid_argument(
-                "first must rise from 0 to the number of boxes (each owner's rows of lo, hi)");
-        } else {
-          start.resize(rows + 1);
-          for (std::size_t i = 0; i <= rows; ++i) start[i] = static_cast<std::int64_t>(i);
-        }
-        const std::size_t n = start.size() - 1;
-        if (D.size() != 3 * n)
-          throw std::invalid_argument(
-              "direction must have one row per owner (without first: the same shape as lo)");
+        const std::size_t n = L.size() / 3, np_ = P.size() / 3;
+        if (H.size() != L.size() || D.size() != L.size())
+          throw std::invalid_argument("lo, hi and direction must have the same shape");
         for (std::size_t i = 0; i < L.size(); ++i)
           if (!std::isfinite(L[i]) || !std::isfinite(H[i]) || !(L[i] <= H[i]))
             throw std::invalid_argument("boxes must be finite with lo <= hi");
@@ -390,9 +373,31 @@ PYBIND11_MODULE(_rdt, m) {
             throw std::invalid_argument("plane must have shape (n, 4): normal and offset");
           Q = copy_of<double>(*plane);
         }
+        std::vector<std::uint8_t> seeded;
+        std::vector<std::int64_t> seed_first;
+        std::vector<double> seed_lo, seed_hi;
+        if (seeds) {
+          if (seeds->size() != 4)
+            throw std::invalid_argument("seeds must be (seeded, first, lo, hi)");
+          const auto sd = (*seeds)[0].cast<py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>>();
+          const auto sf = (*seeds)[1].cast<IdArray>();
+          seeded = copy_of<std::uint8_t>(sd);
+          seed_first = copy_of<std::int64_t>(sf);
+          seed_lo = rows3((*seeds)[2].cast<InArray>(), "seed lo");
+          seed_hi = rows3((*seeds)[3].cast<InArray>(), "seed hi");
+          bool ok = sd.ndim() == 1 && sf.ndim() == 1 && seeded.size() == np_ &&
+                    seed_first.size() == np_ + 1 && seed_first.front() == 0 &&
+                    seed_hi.size() == seed_lo.size() &&
+                    seed_first.back() == static_cast<std::int64_t>(seed_lo.size() / 3);
+          for (std::size_t i = 1; ok && i < seed_first.size(); ++i)
+            ok = seed_first[i - 1] <= seed_first[i];
+          if (!ok)
+            throw std::invalid_argument(
+                "seeds must be (seeded (samples,), first (samples + 1,) rising from 0 to the "
+                "number of seed boxes, lo, hi)");
+        }
         rdmesh::BoxProofInput in;
         in.n = n;
-        in.first = start.data();
         in.lo = L.data();
         in.hi = H.data();
         in.cell = C.data();
@@ -405,6 +410,12 @@ PYBIND11_MODULE(_rdt, m) {
         in.neighbour = nb.data();
         in.budget = static_cast<std::size_t>(budget);
         in.leaves = leaves;
+        if (seeds) {
+          in.seeded = seeded.data();
+          in.seed_first = seed_first.data();
+          in.seed_lo = seed_lo.data();
+          in.seed_hi = seed_hi.data();
+        }
         rdmesh::BoxProofResult r;
         {
           py::gil_scoped_release release;
@@ -422,13 +433,13 @@ PYBIND11_MODULE(_rdt, m) {
       py::arg("ops"), py::arg("consts"), py::arg("lo"), py::arg("hi"), py::arg("cell"),
       py::arg("direction"), py::arg("floor"), py::arg("points"), py::arg("offsets"),
       py::arg("neighbour"), py::arg("skip") = py::none(), py::arg("plane") = py::none(),
-      py::arg("budget") = 1 << 16, py::arg("first") = py::none(), py::arg("leaves") = false,
+      py::arg("budget") = 1 << 16, py::arg("leaves") = false, py::arg("seeds") = py::none(),
       "The subdivision of the proven loop and silhouette tests (rdmesh.topology.proven_cells) "
-      "for n owners, each from its boxes (rows first[i]:first[i+1] of lo, hi; without first "
-      "one row each): (failed (n,) uint8, lo (n, 3), hi (n, 3) of a failed owner's unsettled "
-      "box, boxes (n,) bounded per owner), and with leaves also (leaf_first (n + 1,), "
-      "leaf_lo (L, 3), leaf_hi (L, 3)): each owner's boxes the gradient settled (none for a "
-      "failed owner).");
+      "for n owners, each from its box, or, with seeds = (seeded, first, lo, hi) and its cell "
+      "seeded, from the seed boxes rows first[c]:first[c+1] (c = cell[i]) cut to its box: "
+      "(failed (n,) uint8, lo (n, 3), hi (n, 3) of a failed owner's unsettled box, boxes (n,) "
+      "bounded per owner), and with leaves also (leaf_first (n + 1,), leaf_lo (L, 3), leaf_hi "
+      "(L, 3)): each owner's boxes the gradient settled (none for a failed owner).");
 
   m.def(
       "isolate_segment_roots",

@@ -229,6 +229,40 @@ def test_proven_edge_test_gives_the_same_counts_from_the_proven_cells(text):
     assert part.boxes < whole.boxes  # and with less work
 
 
+def test_proof_memo_keeps_the_leaves_of_unchanged_cells():
+    # A second proof after a few insertions reuses the clean cells that did
+    # not change: their leaves must be exactly a fresh proof's.
+    from rdmesh.topology.proven_cells import CellGeometry, ProofMemo, prove_cells
+    from scipy.spatial import cKDTree
+
+    text = "x**2/1.44 + y**2 + z**2/0.49 - 1"
+    rng = np.random.default_rng(4)
+    x = rng.uniform(-1.3, 1.3, (40000, 3))
+    s = _surface(text, 2.0)
+    x = x[np.argsort(np.abs(s(x)))[:400]]
+    s, rdt, v, n, geo, tree = _cells(text, x)
+    memo = ProofMemo()
+    first = prove_cells(s, rdt, v, n, geo, tree, np.arange(len(v)), memo)
+    assert first.seeded.sum() > 100
+    # Three more samples near one end of the ellipsoid.
+    rdt.insert(np.array([[1.2, 0.0, 0.0], [1.19, 0.05, 0.0], [1.19, 0.0, 0.05]]))
+    v = rdt.samples()
+    n = s.grad(v) / np.linalg.norm(s.grad(v), axis=1)[:, None]
+    geo, tree = CellGeometry.of(rdt, v, s.centre, s.radius), cKDTree(v)
+    ids = np.arange(len(v))
+    again = prove_cells(s, rdt, v, n, geo, tree, ids, memo)
+    fresh = prove_cells(s, rdt, v, n, geo, tree, ids)
+    assert np.array_equal(again.seeded, fresh.seeded)
+    _, touched = memo.touched(rdt, len(x), len(v))
+    kept = np.setdiff1d(np.flatnonzero(first.seeded), touched)
+    assert 100 < len(kept) < first.seeded.sum()
+    for p in kept:
+        a = slice(again.first[p], again.first[p + 1])
+        b = slice(fresh.first[p], fresh.first[p + 1])
+        assert np.array_equal(again.lo[a], fresh.lo[b])
+        assert np.array_equal(again.hi[a], fresh.hi[b])
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     seed=st.integers(0, 2**31 - 1),

@@ -68,9 +68,9 @@ def prove_boxes(
     skip: npt.ArrayLike | None = None,
     plane: npt.ArrayLike | None = None,
     budget: int = 65536,
-    first: npt.ArrayLike | None = None,
     leaves: bool = False,
-) -> tuple: ...
+    seeds: tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike] | None = None,
+) -> tuple: ...  # (failed, lo, hi, boxes), then (leaf_first, leaf_lo, leaf_hi) with leaves
 def segment_pieces(
     a: npt.ArrayLike,
     b: npt.ArrayLike,

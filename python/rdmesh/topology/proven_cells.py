@@ -73,6 +73,7 @@ class ProofMemo:
     cell_samples: int = 0  # samples at the last silhouette proof
     clean_edges: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     clean_cells: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    cells: CellProof | None = None  # the last silhouette proof, with every clean cell's leaves
     _dirty: tuple | None = None
 
     def touched(self, rdt, since: int, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
@@ -165,14 +166,10 @@ def proven_loop_test(
 
     plane = np.column_stack([normal, np.einsum("ij,ij->i", mid, normal)])[live]
     lo, hi = geometry.lo[live], geometry.hi[live]
-    first = None
-    floor = _floor(surface, lo, hi)
-    if cells is not None:
-        first, lo, hi = _seeds(cells, e[live, 0], lo, hi, plane)
     out = _prove(
         "proven_voronoi_loop", surface, vertices, tree, geometry, lo, hi, live,
-        cell=e[live, 0], direction=direction[live], floor=floor, skip=e[live, 1],
-        plane=plane, first=first,
+        cell=e[live, 0], direction=direction[live], floor=_floor(surface, lo, hi),
+        skip=e[live, 1], plane=plane, seeds=cells,
     )  # fmt: skip
     if memo is not None:
         bad = np.zeros(len(e), bool)
@@ -246,11 +243,22 @@ def prove_cells(
     seeded = np.zeros(n, bool)
     seeded[cells] = True
     seeded[out.owners] = False
-    counts = np.zeros(n, np.int64)
-    counts[cells] = np.diff(leaves[0])
-    order = np.argsort(np.repeat(cells, np.diff(leaves[0])), kind="stable")
-    first = np.r_[0, np.cumsum(counts)]
-    return CellProof(out, seeded, first, leaves[1][order], leaves[2][order])
+    owner, blo, bhi = np.repeat(cells, np.diff(leaves[0])), leaves[1], leaves[2]
+    last = None if memo is None else memo.cells
+    if last is not None and len(done):
+        # Cells known clean have not changed since: their leaves still hold.
+        keep = done[done < len(last.seeded)]
+        keep = keep[last.seeded[keep]]
+        i, rows = last.leaves_of(keep)
+        owner = np.concatenate([owner, keep[i]])
+        blo, bhi = np.concatenate([blo, last.lo[rows]]), np.concatenate([bhi, last.hi[rows]])
+        seeded[keep] = True
+    order = np.argsort(owner, kind="stable")
+    first = np.r_[0, np.cumsum(np.bincount(owner, minlength=n))]
+    proof = CellProof(out, seeded, first, blo[order], bhi[order])
+    if memo is not None:
+        memo.cells = proof
+    return proof
 
 
 def proven_silhouette_test(
@@ -275,23 +283,21 @@ def _floor(surface: ImplicitSurface, lo, hi) -> np.ndarray:
     )
 
 
-def _seeds(cells: CellProof, host, lo, hi, plane):
-    """Each facet's first boxes, as (first, lo, hi): the leaves of its host's
-    cell that meet its box and plane (the facet lies in that cell, so its
-    part of the surface lies in them), or its own box where the host has none."""
-    n = len(host)
-    seeded = cells.seeded[host]
-    owner, rows = cells.leaves_of(host)
-    blo = np.maximum(cells.lo[rows], lo[owner])
-    bhi = np.minimum(cells.hi[rows], hi[owner])
-    keep = np.all(blo <= bhi, axis=1) & _meets_plane(blo, bhi, plane[owner])
+def _seed_boxes(seeds: CellProof, cell, lo, hi):
+    """Each owner's first boxes, as (owner, lo, hi): the leaves of its cell cut
+    to its box where the cell is seeded, its box elsewhere (what the core's
+    ``prove_boxes`` does with seeds)."""
+    seeded = seeds.seeded[cell]
+    owner, rows = seeds.leaves_of(cell)
+    blo = np.maximum(seeds.lo[rows], lo[owner])
+    bhi = np.minimum(seeds.hi[rows], hi[owner])
+    keep = np.all(blo <= bhi, axis=1)
     own = np.flatnonzero(~seeded)
-    owner = np.concatenate([owner[keep], own])
-    blo = np.concatenate([blo[keep], lo[own]])
-    bhi = np.concatenate([bhi[keep], hi[own]])
-    order = np.argsort(owner, kind="stable")
-    first = np.r_[0, np.cumsum(np.bincount(owner, minlength=n))]
-    return first, blo[order], bhi[order]
+    return (
+        np.concatenate([owner[keep], own]),
+        np.concatenate([blo[keep], lo[own]]),
+        np.concatenate([bhi[keep], hi[own]]),
+    )
 
 
 def _meets_plane(lo, hi, plane) -> np.ndarray:
@@ -305,13 +311,14 @@ def _meets_plane(lo, hi, plane) -> np.ndarray:
 
 def _prove(
     kind, surface, vertices, tree, geometry, lo, hi, owner, cell, direction, floor,
-    skip=None, plane=None, first=None, leaves=False,
+    skip=None, plane=None, leaves=False, seeds: CellProof | None = None,
 ):  # fmt: skip
-    """Subdivide each owner's boxes until every piece is irrelevant or settled.
+    """Subdivide each owner's box until every piece is irrelevant or settled.
 
     Owner ``i`` (row ``owner[i]`` of the facets, or a sample id) starts from
-    boxes ``lo[r], hi[r]`` for ``r`` in ``first[i]:first[i + 1]`` (one box
-    each without ``first``). A piece is irrelevant when it lies off
+    box ``lo[i], hi[i]``, or, where ``seeds`` has proven its cell
+    ``cell[i]``, from that cell's leaves cut to the box (they hold every zero
+    of ``f`` in the cell). A piece is irrelevant when it lies off
     ``plane[i]`` (normal and offset; facets only) or wholly outside the
     Voronoi cell of ``cell[i]`` (leaving out neighbour ``skip[i]``), or when
     ``0`` is not in the bounds of ``f``; it is settled when
@@ -324,17 +331,17 @@ def _prove(
     expr = surface.f
     if not isinstance(expr, Expression):
         raise TypeError(f"{kind} needs an expression surface")
-    if first is None:
-        first = np.arange(len(lo) + 1)
     program = native_program(expr)
     if program is None:
+        start = (np.arange(len(lo)), lo, hi) if seeds is None else _seed_boxes(seeds, cell, lo, hi)
         failed, blo, bhi, kept = _prove_numpy(
-            expr, vertices, geometry, lo, hi, first, cell, direction, skip, plane, floor
+            expr, vertices, geometry, *start, len(lo), cell, direction, skip, plane, floor
         )
     else:
+        seed = None if seeds is None else (seeds.seeded, seeds.first, seeds.lo, seeds.hi)
         failed, blo, bhi, boxes, *kept = prove_boxes(
             *program, lo, hi, cell, direction, floor, vertices,
-            geometry.offsets, geometry.neighbour, skip, plane, BUDGET, first, leaves,
+            geometry.offsets, geometry.neighbour, skip, plane, BUDGET, leaves, seed,
         )  # fmt: skip
         expr.count_boxes(int(boxes.sum()))
         failed = np.flatnonzero(failed)
@@ -349,12 +356,11 @@ def _prove(
     return (out, tuple(kept)) if leaves else out
 
 
-def _prove_numpy(expr, vertices, geometry, lo, hi, first, cell, direction, skip, plane, floor):
+def _prove_numpy(expr, vertices, geometry, owner, lo, hi, n, cell, direction, skip, plane, floor):
     """What the core's ``prove_boxes`` does, level by level in numpy, for
-    expressions the core cannot bound: (failed rows, their first unsettled
-    boxes, and each owner's settled boxes as (first, lo, hi))."""
-    n = len(first) - 1
-    owner = np.repeat(np.arange(n), np.diff(first))
+    expressions the core cannot bound, from the boxes ``lo, hi`` of the ``n``
+    owners ``owner``: (failed owners, their first unsettled boxes, and each
+    owner's settled boxes as (first, lo, hi))."""
     done = np.zeros(n, bool)
     bad_lo, bad_hi, bad_owner = [], [], []
     leaf_lo, leaf_hi, leaf_owner = [], [], []
