@@ -33,7 +33,7 @@ from ..topology.regions import describe_regions, regions
 from .check import check_restricted
 from .criteria import FacetCriteria
 from .floor import SpacingFloor
-from .methods import METHODS, Plan
+from .methods import METHODS, Plan, boundary_sizing
 from .phases import Phases
 from .pipeline import FacetPipeline
 from .samples import Samples
@@ -152,7 +152,14 @@ class Mesher:
     def _loop(self, plan: Plan, t0: float, stop: str | None) -> str | None:
         """Refinement rounds until nothing is left to refine or a budget runs out."""
         floor = SpacingFloor(self.criteria, self.surface.radius, plan.topology_floor)
-        phases = Phases(plan.phases, floor)
+        place = None
+        if self.clipped and plan.boundary is not None and len(plan.boundary.points):
+            curve, sizing = plan.boundary, boundary_sizing(self.surface, self.criteria)
+
+            def place(found: Candidates, snap: Snapshot) -> tuple[Candidates, np.ndarray]:
+                return onto_curve(self.surface, curve, found, snap, sizing)
+
+        phases = Phases(plan.phases, floor, place)
         cap = self.budget.max_vertices
         # A round's cost (insert, update, stages, select) grows with the points
         # it inserts: the next round is predicted from this one per point.
@@ -173,11 +180,6 @@ class Mesher:
                 log.warning("ended at the cap of %d rounds; see unresolved", MAX_ROUNDS)
                 self.unresolved.append(found.centres)
                 break
-            if self.clipped and plan.boundary is not None and len(plan.boundary.points):
-                found, refused = onto_curve(self.surface, plan.boundary, found, self.snapshot())
-                self.unresolved.append(refused)
-                if len(found) == 0:
-                    break
             with self.timer("select"):
                 batch = found.centres[core.select_independent(found.centres, found.radii)]
             now = time.perf_counter()
@@ -233,16 +235,26 @@ def _no_progress(stage: str, n: int) -> str:
 
 
 def onto_curve(
-    surface: ImplicitSurface, curve: BoundaryCurve, found: Candidates, snap: Snapshot
+    surface: ImplicitSurface,
+    curve: BoundaryCurve,
+    found: Candidates,
+    snap: Snapshot,
+    sizing: Callable[[np.ndarray], np.ndarray],
 ) -> tuple[Candidates, np.ndarray]:
-    """Refinement points that would become boundary vertices moved onto the
-    boundary curve (:func:`rdmesh.sampling.boundary.guard_boundary`), and
-    the points that cannot be (left unresolved)."""
-    points, snapped, keep = guard_boundary(surface, curve, found.centres, found.radii, snap.tree)
-    if snapped.any():
-        log.debug("%d refinement points moved onto the boundary curve", int(snapped.sum()))
-    found = Candidates(found.stage, points, found.radii, found.topological, found.violations)
-    return found.take(keep), found.centres[~keep]
+    """Refinement points that would become boundary vertices replaced by
+    splits of the boundary curve's chords, or moved onto the curve
+    (:func:`rdmesh.sampling.boundary.guard_boundary`); returns the points
+    kept and those that cannot be placed (left unresolved; optional points
+    are dropped instead)."""
+    g = guard_boundary(
+        surface, curve, found.centres, found.radii, snap.tree, snap.vertices, sizing, found.soft
+    )
+    if g.snapped.any():
+        log.debug("%d refinement points moved onto the boundary curve", int(g.snapped.sum()))
+    moved = Candidates(
+        found.stage, g.points, g.radii, found.topological, found.violations, soft=found.soft
+    )
+    return moved.take(g.keep), g.points[~g.keep & ~g.dropped]
 
 
 def _progress(rounds: int, stage: str, inserted: int, vertices: np.ndarray, t0: float) -> dict:

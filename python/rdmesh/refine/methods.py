@@ -25,7 +25,7 @@ from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
 from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
 from ..sampling.critical import CriticalPoints, critical_points
 from ..sampling.discovery import Discovery, discover
-from ..sampling.domain import clip_box, depth
+from ..sampling.domain import clip_box, depth, on_clip_surface
 from ..sampling.grid import GridScan, fibonacci_sphere, grid_scan
 from ..sampling.probes import Probes, surface_probes
 from ..surfaces.oracle import ImplicitSurface
@@ -96,7 +96,8 @@ def boissonnat_oudot(
             inner = scan.seeds[depth(surface, scan.seeds) >= SEED_BAND * size]
             seeds = np.concatenate([boundary.points, _away(inner, boundary.points, 0.5 * size)])
             scan = GridScan(seeds, scan.crossings, scan.spacing)
-    stages: list[Stage] = [FacetStage("facet", core.BAD | core.TOPO, "unless-bad")]
+    soft = _angle_only_at_boundary(surface, criteria) if clipped else None
+    stages: list[Stage] = [FacetStage("facet", core.BAD | core.TOPO, "unless-bad", soft)]
     if topology != "non-manifold":
         allow = topology == "manifold-with-boundary"
         stages += [
@@ -213,6 +214,37 @@ def _boundary_spacing(surface: ImplicitSurface, criteria: FacetCriteria) -> floa
             box, float(np.sqrt(2.0 * (e[0] * e[1] + e[1] * e[2] + e[0] * e[2]) / 4000))
         )[0]
     return float(np.max(criteria.sizing(on_boundary)))
+
+
+def boundary_sizing(
+    surface: ImplicitSurface, criteria: FacetCriteria
+) -> Callable[[np.ndarray], np.ndarray]:
+    """The local size bound at the boundary, ``(N, 3)`` points to ``N``
+    lengths: the radius bound (a sizing field's value), or the boundary
+    curve's spacing without one (:func:`_boundary_spacing`)."""
+    if criteria.radius_bound is not None:
+        return criteria.sizing
+    size = _boundary_spacing(surface, criteria)
+    return lambda x: np.full(len(x), size)
+
+
+def at_boundary(surface: ImplicitSurface, corners: np.ndarray) -> np.ndarray:
+    """Which triangles ``(k, 3, 3)`` have an edge on the boundary: two or
+    three vertices on the clipping surface (the sphere or the clip box)."""
+    on = on_clip_surface(surface, corners.reshape(-1, 3))
+    return on.reshape(-1, 3).sum(axis=1) >= 2
+
+
+def _angle_only_at_boundary(surface: ImplicitSurface, criteria: FacetCriteria):
+    """Which bad facets fail only the angle bound at the boundary (optional
+    refinement: :func:`rdmesh.sampling.boundary.guard_boundary` may drop their
+    points); flags with ``TOPO`` are never optional."""
+
+    def soft(corners, centres, radii, flags):
+        other = criteria.bad(corners, centres, radii, at_boundary(surface, corners))
+        return ~other & ((flags & core.TOPO) == 0)
+
+    return soft
 
 
 def _away(points: np.ndarray, anchors: np.ndarray, distance: float) -> np.ndarray:

@@ -19,11 +19,12 @@ from concurrent.futures import ThreadPoolExecutor, wait
 import numpy as np
 
 from .. import core
-from ..sampling.domain import on_clip_surface
+from ..sampling.boundary import BOUNDARY_ANGLE_FLOOR
 from ..sampling.grid import check_sphere_ends
 from ..surfaces.oracle import ImplicitSurface
 from .criteria import FacetCriteria
 from .facets import SAMPLING, DualSamples, evaluate_facets
+from .methods import at_boundary, boundary_sizing
 from .timing import PhaseTimer
 
 #: Facets per chunk from the core, and per evaluation slice: bound the memory
@@ -64,6 +65,8 @@ class FacetPipeline:
         self.timer = timer
         #: The surface may leave the ball: no check at the sphere.
         self.clipped = clipped
+        #: The local size bound at the boundary (the angle bound's floor there).
+        self.boundary_sizing = boundary_sizing(surface, criteria) if clipped else None
         #: Facets evaluated so far.
         self.evaluated = 0
         #: Dual segments whose root search failed (never used as surface points).
@@ -145,10 +148,13 @@ class FacetPipeline:
             corners = vertices[t[r]]
             exempt = None
             if self.clipped:
-                # Facets with an edge on the boundary curve: two vertices on
-                # the clipping surface (the sphere or the clip box).
-                on = on_clip_surface(self.surface, corners.reshape(-1, 3))
-                exempt = on.reshape(-1, 3).sum(axis=1) >= 2
+                # Facets with an edge on the boundary curve (two vertices on
+                # the clipping surface, the sphere or the clip box) are held
+                # to the angle bound down to a floor of ball radius.
+                exempt = at_boundary(self.surface, corners)
+                if exempt.any():
+                    psi = self.boundary_sizing(ev.centre[r][exempt])
+                    exempt[exempt] = ev.radius[r][exempt] <= BOUNDARY_ANGLE_FLOOR * psi
             bad[r] = self.criteria.bad(corners, ev.centre[r], ev.radius[r], exempt)
             topo = r & ((ev.n_cross >= 2) | ev.tangential)
             flags[sl] = (

@@ -13,6 +13,7 @@ of the first one that has any above the floor.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -47,6 +48,9 @@ class Candidates:
     violations: int = 0
     #: Where elements fail without a refinement point, ``(m, 3)``.
     stuck: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    #: ``(k,)`` bool, optional: points that may be dropped when they cannot be
+    #: placed (facets bad only by the angle bound at the boundary).
+    soft: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.centres)
@@ -54,7 +58,10 @@ class Candidates:
     def take(self, keep: np.ndarray) -> Candidates:
         """The candidates where ``keep`` is True."""
         topo = np.broadcast_to(self.topological, len(self.centres))[keep]
-        return Candidates(self.stage, self.centres[keep], self.radii[keep], topo, self.violations)
+        soft = None if self.soft is None else self.soft[keep]
+        return Candidates(
+            self.stage, self.centres[keep], self.radii[keep], topo, self.violations, soft=soft
+        )
 
 
 class Stage(Protocol):
@@ -79,13 +86,20 @@ class FacetStage:
     name: str
     mask: int
     topological: bool | str
+    #: Which facets are optional, given ``(corners (k, 3, 3), centres, radii,
+    #: flags)``: see :attr:`Candidates.soft`.
+    soft: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
 
     def candidates(self, snap: Snapshot) -> Candidates:
-        _, centres, flags = snap.facets(self.mask)
+        tri, centres, flags = snap.facets(self.mask)
+        radii = snap.radii(self.mask)
         topo = self.topological
         if topo == "unless-bad":
             topo = (flags & core.BAD) == 0
-        return Candidates(self.name, centres, snap.radii(self.mask), topo, len(centres))
+        soft = None
+        if self.soft is not None:
+            soft = self.soft(snap.vertices[tri], centres, radii, flags)
+        return Candidates(self.name, centres, radii, topo, len(centres), soft=soft)
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from scipy.optimize import elementwise
@@ -38,7 +39,7 @@ from scipy.spatial.transform import Rotation
 from .._newton import damped_step
 from .._vectors import row_norms
 from ..surfaces.oracle import ImplicitSurface
-from .domain import clip_box
+from .domain import clip_box, on_clip_surface
 
 log = logging.getLogger("rdmesh")
 
@@ -71,6 +72,8 @@ class BoundaryCurve:
     domain : "sphere" or "box": the surface the curve was traced on.
     corners : (c, 3) the samples where the curve crosses a box edge (found
         by root finding along the edge; also in ``points``).
+    dense_loop : (q,) int64 the loop of each point of ``dense`` (each loop's
+        points are contiguous, in order along it).
     """
 
     points: np.ndarray
@@ -82,10 +85,83 @@ class BoundaryCurve:
     gap: float = 0.0
     domain: str = "sphere"
     corners: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    dense_loop: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
     def n_loops(self) -> int:
         return len(self.lengths)
+
+    @cached_property
+    def _polyline(self) -> _Polyline:
+        return _Polyline.of(self.dense, self.dense_loop, self.n_loops)
+
+    def locate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The loop of each point ``(k, 3)`` near the curve and its arc position
+        along it (on the traced polyline, from the loop's first point): the
+        nearest point of the polyline. Returns ``(loop (k,), arc (k,))``."""
+        return self._polyline.locate(x)
+
+    def point_at(self, loop: np.ndarray, arc: np.ndarray) -> np.ndarray:
+        """The traced polyline's point at arc position ``arc`` of loop ``loop``, ``(k, 3)``."""
+        return self._polyline.point_at(loop, arc)
+
+    @property
+    def loop_lengths(self) -> np.ndarray:
+        """(L,) the length of each loop's traced polyline (closed)."""
+        return self._polyline.total
+
+
+@dataclass
+class _Polyline:
+    """The traced curve as closed polylines, one per loop, with arc positions."""
+
+    dense: np.ndarray  # (q, 3)
+    loop: np.ndarray  # (q,)
+    seg: np.ndarray  # (q, 3) from each point to the next along its loop
+    ell: np.ndarray  # (q,) the segments' lengths
+    before: np.ndarray  # (q,) length of the whole polyline (all loops) before each point
+    offset: np.ndarray  # (L,) ``before`` at each loop's first point
+    total: np.ndarray  # (L,) each loop's length
+    starts: np.ndarray  # (L,) each loop's first point
+    ends: np.ndarray  # (L,) one past each loop's last point
+    tree: cKDTree
+
+    @classmethod
+    def of(cls, dense: np.ndarray, loop: np.ndarray, n_loops: int) -> _Polyline:
+        counts = np.bincount(loop, minlength=n_loops)
+        ends = np.cumsum(counts)
+        starts = ends - counts
+        nxt = np.arange(len(dense)) + 1
+        has = counts > 0
+        nxt[ends[has] - 1] = starts[has]
+        seg = dense[nxt] - dense
+        ell = row_norms(seg)
+        before = np.cumsum(ell) - ell
+        offset = np.where(has, before[np.minimum(starts, len(dense) - 1)], 0.0)
+        total = np.bincount(loop, weights=ell, minlength=n_loops)
+        return cls(dense, loop, seg, ell, before, offset, total, starts, ends, cKDTree(dense))
+
+    def locate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        _, j = self.tree.query(x)
+        loop = self.loop[j]
+        # The nearer of the two polyline segments at the nearest point.
+        prv = np.where(j == self.starts[loop], self.ends[loop] - 1, j - 1)
+        best_d, best_arc = np.full(len(x), np.inf), np.zeros(len(x))
+        for s in (prv, j):
+            ell2 = np.maximum(self.ell[s] ** 2, 1e-300)
+            w = np.clip(np.einsum("ij,ij->i", x - self.dense[s], self.seg[s]) / ell2, 0.0, 1.0)
+            d = row_norms(self.dense[s] + w[:, None] * self.seg[s] - x)
+            arc = self.before[s] - self.offset[loop] + w * self.ell[s]
+            better = d < best_d
+            best_d[better], best_arc[better] = d[better], arc[better]
+        return loop, np.mod(best_arc, np.maximum(self.total[loop], 1e-300))
+
+    def point_at(self, loop: np.ndarray, arc: np.ndarray) -> np.ndarray:
+        key = self.offset[loop] + np.mod(arc, np.maximum(self.total[loop], 1e-300))
+        j = np.searchsorted(self.before, key, side="right") - 1
+        j = np.clip(j, self.starts[loop], self.ends[loop] - 1)
+        w = np.clip((key - self.before[j]) / np.maximum(self.ell[j], 1e-300), 0.0, 1.0)
+        return self.dense[j] + w[:, None] * self.seg[j]
 
 
 def boundary_curve(
@@ -188,7 +264,9 @@ def boundary_curve(
         len(points),
         int(kept.sum()),
     )
-    return BoundaryCurve(points, which, lengths, h, size, pts, gap, domain, points[kept])
+    return BoundaryCurve(
+        points, which, lengths, h, size, pts, gap, domain, points[kept], loop.astype(np.int64)
+    )
 
 
 def box_grid(box: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -477,11 +555,47 @@ def _resample(pts, loop, n_loops, size, distance, fixed=None):
     return points, arc_loop[arc], lengths, kept
 
 
-#: A refinement point moved onto the curve is kept when it lies farther than
-#: this, times its ball's radius, from every sample.
+#: A refinement point moved onto the curve away from a chord's middle (see
+#: :func:`guard_boundary`) is kept when it lies farther than this, times its
+#: ball's radius, from every sample.
 SNAP_KEEP = 0.25
 #: Seeds closer than this to the sphere, times the curve's spacing, are dropped.
 SEED_BAND = 0.6
+#: The curve's 1-D refinement splits a chord between consecutive boundary
+#: vertices only when both halves are at least this, times the local size
+#: bound, long (along the traced curve): boundary edges stay at least this
+#: long, up to the chord-to-arc ratio, whatever refines them.
+BOUNDARY_MIN = 0.25
+#: Points that are not optional may split shorter chords, down to halves of
+#: this, times the local size bound.
+SHORT_MIN = 0.125
+#: A chord's middle is not inserted when a sample lies closer to it than
+#: this, times half the chord.
+SPLIT_KEEP = 0.5
+#: Triangles with an edge on the boundary are held to the angle bound while
+#: their surface Delaunay ball is larger than this, times the local size
+#: bound (the floor that makes the refinement at the boundary terminate).
+BOUNDARY_ANGLE_FLOOR = 0.25
+
+
+@dataclass
+class Guarded:
+    """What :func:`guard_boundary` did with k refinement points.
+
+    Attributes
+    ----------
+    points : (k, 3) the points, moved where ``snapped``.
+    radii : (k,) their balls' radii: half the chord for a chord's middle.
+    snapped : (k,) bool: moved onto the curve.
+    keep : (k,) bool: False where the point can be neither moved nor inserted.
+    dropped : (k,) bool: not kept, but optional (``soft``): not a failure.
+    """
+
+    points: np.ndarray
+    radii: np.ndarray
+    snapped: np.ndarray
+    keep: np.ndarray
+    dropped: np.ndarray
 
 
 def guard_boundary(
@@ -490,20 +604,36 @@ def guard_boundary(
     centres: np.ndarray,
     radii: np.ndarray,
     tree: cKDTree,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Keep interior refinement points off the boundary curve.
+    samples: np.ndarray,
+    sizing: Callable[[np.ndarray], np.ndarray],
+    soft: np.ndarray | None = None,
+) -> Guarded:
+    """Keep interior refinement points off the boundary curve; refine the
+    curve in 1-D instead.
 
     A sample becomes a boundary vertex when it is the nearest sample of some
     point of the curve. Every traced curve point ``c`` (the fine polyline)
     has its nearest sample at distance ``d(c)``; a refinement point ``p``
     with ``|c - p| > d(c) + gap`` for every ``c`` (``gap`` bounds the
     distance between consecutive traced points) leaves the boundary as it
-    is and is inserted unchanged. Any other ``p`` is projected onto the
-    curve (a 1-D refinement of the curve) and kept there when the
-    projection lands within ``2 size`` of ``p`` and farther than
-    ``SNAP_KEEP`` times its ball's radius from every sample. When it cannot
-    be moved, it is inserted unchanged if only the margin ``gap`` caught it
-    (``|c - p| > d(c)`` at every traced point), and refused otherwise.
+    is and is inserted unchanged. Any other ``p`` encroaches on the curve:
+    it is projected onto the curve, and the chord between the two
+    consecutive boundary vertices around the projection (along the traced
+    curve) is split at its middle instead, as Ruppert's refinement splits an
+    encroached segment, when both halves are at least ``BOUNDARY_MIN`` times
+    the local size bound long and no sample lies within ``SPLIT_KEEP`` half
+    chords of the middle. Boundary vertices are thus never closer along the
+    curve than that (the first samples are about the size bound apart).
+
+    When the chord is not split by that rule, a point that is not ``soft``
+    is moved to the chord's middle all the same (the chord's point farthest
+    from its ends) if its projection lands within ``2 size`` of ``p``, the
+    halves are at least ``SHORT_MIN`` times the size bound long and the
+    middle lies farther than ``SNAP_KEEP`` times its ball's radius from
+    every sample; otherwise it is inserted unchanged if only the margin ``gap`` caught it
+    (``|c - p| > d(c)`` at every traced point), dropped if ``soft`` (a
+    triangle bad only by the angle bound at the boundary) and refused
+    otherwise.
 
     Parameters
     ----------
@@ -512,19 +642,20 @@ def guard_boundary(
     centres : (k, 3) refinement points inside the ball.
     radii : (k,) their balls' radii.
     tree : KD-tree of the current samples.
+    samples : (n, 3) the current samples.
+    sizing : the local size bound, ``(N, 3)`` points to ``N`` lengths.
+    soft : (k,) bool, optional: points that may be dropped.
 
     Returns
     -------
-    points : (k, 3) the refinement points, moved where ``snapped``.
-    snapped : (k,) bool
-    keep : (k,) bool: False where a moved point would nearly repeat a sample.
+    Guarded
     """
     k = len(centres)
-    out = centres.copy()
-    snapped = np.zeros(k, bool)
-    keep = np.ones(k, bool)
+    soft = np.zeros(k, bool) if soft is None else np.asarray(soft, bool)
+    out = Guarded(centres.copy(), radii.copy(), np.zeros(k, bool), np.ones(k, bool),
+                  np.zeros(k, bool))  # fmt: skip
     if k == 0 or len(curve.dense) == 0:
-        return out, snapped, keep
+        return out
     d_c, _ = tree.query(curve.dense)
     reach = d_c + curve.gap
     pairs = cKDTree(centres).sparse_distance_matrix(
@@ -532,20 +663,93 @@ def guard_boundary(
     )
     rows = np.unique(pairs.row[pairs.data <= reach[pairs.col]])
     if len(rows) == 0:
-        return out, snapped, keep
+        return out
     # Nearer to a traced point than its nearest sample, without the margin.
     closer = np.zeros(k, bool)
     closer[pairs.row[pairs.data <= d_c[pairs.col]]] = True
     moved = project_onto_curve(surface, centres[rows])
-    ok = row_norms(moved - centres[rows]) < 2.0 * curve.size
-    d, _ = tree.query(moved)
-    ok &= d > SNAP_KEEP * radii[rows]
-    out[rows[ok]] = moved[ok]
-    snapped[rows[ok]] = True
+    near = row_norms(moved - centres[rows]) < 2.0 * curve.size
+    middle, half, ok, middle_ok = _split_chords(surface, curve, samples, tree, moved, sizing)
+    split = near & ok
+    out.points[rows[split]] = middle[split]
+    out.radii[rows[split]] = half[split]
+    # A chord too short to split by the rule: its middle (the point of the
+    # chord farthest from its ends) all the same, for a point that is not
+    # optional, when it stays away from the samples.
+    d, _ = tree.query(middle)
+    onto = ~split & near & middle_ok & (d > SNAP_KEEP * radii[rows]) & ~soft[rows]
+    onto &= half >= SHORT_MIN * sizing(middle)
+    out.points[rows[onto]] = middle[onto]
+    out.radii[rows[onto]] = half[onto]
+    out.snapped[rows[split | onto]] = True
     # A point that cannot be moved stays where it is when only the margin
-    # caught it; otherwise it is refused.
-    keep[rows[~ok & closer[rows]]] = False
-    return out, snapped, keep
+    # caught it; otherwise it is dropped (soft) or refused.
+    stuck = rows[~split & ~onto & closer[rows]]
+    out.keep[stuck] = False
+    out.dropped[stuck] = soft[stuck]
+    log.debug(
+        "boundary guard: %d of %d points at the curve: %d chords split, %d short ones, "
+        "%d dropped, %d refused",
+        len(rows), k, int(split.sum()), int(onto.sum()), int(out.dropped.sum()),
+        len(stuck) - int(out.dropped.sum()),
+    )  # fmt: skip
+    return out
+
+
+def _split_chords(
+    surface: ImplicitSurface,
+    curve: BoundaryCurve,
+    samples: np.ndarray,
+    tree: cKDTree,
+    q: np.ndarray,
+    sizing: Callable[[np.ndarray], np.ndarray],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The middle of the chord around each curve point ``q`` ``(k, 3)``.
+
+    The boundary vertices (the samples on the clipping surface) are ordered
+    along each loop by arc position on the traced curve; the chord around
+    ``q`` joins the last one before it and the first one after it (cyclically).
+    Its middle is the point of the traced curve halfway along the arc,
+    projected onto the curve. Returns ``(middle (k, 3), half the arc (k,),
+    ok (k,), placed (k,))``: ``placed`` is False where the loop has no
+    boundary vertex or the projection did not converge, ``ok`` also where
+    the chord is too short to split (``BOUNDARY_MIN``) or a sample is too
+    close to its middle (``SPLIT_KEEP``).
+    """
+    k = len(q)
+    middle, half, ok = np.zeros((k, 3)), np.zeros(k), np.zeros(k, bool)
+    on = on_clip_surface(surface, samples)
+    if not on.any():
+        return middle, half, ok, ok.copy()
+    lb, tb = curve.locate(samples[on])
+    lq, tq = curve.locate(q)
+    total, offset = curve.loop_lengths, curve._polyline.offset
+    key = offset[lb] + tb
+    o = np.argsort(key, kind="stable")
+    key, lb, tb = key[o], lb[o], tb[o]
+    loops = np.arange(curve.n_loops)
+    first = np.searchsorted(lb, loops, side="left")[lq]
+    end = np.searchsorted(lb, loops, side="right")[lq]
+    has = end > first
+    i = np.searchsorted(key, offset[lq] + tq, side="right")
+    i = np.clip(i, first, end)
+    length = total[lq]
+    wrap_b, wrap_a = i >= end, i <= first
+    b = np.where(wrap_b, first, i)
+    a = np.where(wrap_a, end - 1, i - 1)
+    a, b = np.where(has, a, 0), np.where(has, b, 0)
+    t_b = tb[b] + np.where(wrap_b, length, 0.0)
+    t_a = tb[a] - np.where(wrap_a & ~wrap_b, length, 0.0)
+    # One boundary vertex on the loop: the chord is the whole loop.
+    arc = np.where(has, t_b - t_a, 0.0)
+    middle = project_onto_curve(surface, curve.point_at(lq, 0.5 * (t_a + t_b)))
+    half = 0.5 * arc
+    g = row_norms(surface.grad(middle))
+    converged = np.abs(surface(middle)) <= CURVE_TOL * surface.radius * np.maximum(g, 1e-300)
+    d, _ = tree.query(middle)
+    placed = has & converged
+    ok = placed & (half >= BOUNDARY_MIN * sizing(middle)) & (d > SPLIT_KEEP * half)
+    return middle, half, ok, placed
 
 
 def project_onto_curve(surface: ImplicitSurface, x: np.ndarray) -> np.ndarray:
