@@ -673,17 +673,20 @@ PYBIND11_MODULE(_rdt, m) {
           "the polygon edge from vertex j to j+1 (cyclic), -1 for a dummy). "
           "Raises ValueError for ids out of range or pairs that are not edges.")
       .def(
-          "voronoi_facet_boxes",
+          "voronoi_boxes",
           [](RestrictedDelaunay& self) {
             std::vector<std::int64_t> edges;
-            std::vector<double> boxes;
-            locked(self, [&] { self.voronoi_facet_boxes(edges, boxes); });
+            std::vector<double> facets, cells;
+            locked(self, [&] { self.voronoi_boxes(edges, facets, cells); });
             const auto m = static_cast<py::ssize_t>(edges.size() / 2);
-            return py::make_tuple(to_numpy(edges, {m, 2}), to_numpy(boxes, {m, 2, 3}));
+            const auto n = static_cast<py::ssize_t>(cells.size() / 6);
+            return py::make_tuple(to_numpy(edges, {m, 2}), to_numpy(facets, {m, 2, 3}),
+                                  to_numpy(cells, {n, 2, 3}));
           },
           "Every Delaunay edge between samples (m, 2), as delaunay_edges() gives them, "
-          "and the bounding box (m, 2, 3) (lo, hi) of its Voronoi facet: the extremes "
-          "of the circumcentres of the cells around the edge.")
+          "the bounding box (m, 2, 3) (lo, hi) of its Voronoi facet (the extremes of the "
+          "circumcentres of the cells around the edge), and every sample's Voronoi cell box "
+          "(samples, 2, 3), as voronoi_cell_boxes gives it.")
       .def(
           "voronoi_cell_boxes",
           [](RestrictedDelaunay& self, const IdArray& ids) {

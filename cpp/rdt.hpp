@@ -177,9 +177,11 @@ class RestrictedDelaunay {
 
   // Every Delaunay edge between samples (sorted id pairs, as delaunay_edges
   // gives them) and the bounding box of its Voronoi facet, 6 doubles per edge
-  // (lo then hi): the extremes of the circumcentres of the cells around it.
+  // (lo then hi): the extremes of the circumcentres of the cells around it;
+  // and every sample's Voronoi cell box, as voronoi_cell_boxes gives it.
   // Not const: it caches circumcentres.
-  void voronoi_facet_boxes(std::vector<std::int64_t>& edges, std::vector<double>& boxes);
+  void voronoi_boxes(std::vector<std::int64_t>& edges, std::vector<double>& facet_boxes,
+                     std::vector<double>& cell_boxes);
 
   // Delaunay edges between samples, as sorted id pairs (p < q) in increasing
   // order: those of the cells incident to the given samples, or every such

@@ -123,56 +123,88 @@ VoronoiFacets RestrictedDelaunay::voronoi_facets(const std::int64_t* edges,
   return out;
 }
 
-void RestrictedDelaunay::voronoi_facet_boxes(std::vector<std::int64_t>& edges,
-                                             std::vector<double>& boxes) {
+void RestrictedDelaunay::voronoi_boxes(std::vector<std::int64_t>& edges,
+                                       std::vector<double>& facet_boxes,
+                                       std::vector<double>& cell_boxes) {
   // One pass over the cells: each adds its circumcentre to the boxes of its
-  // edges between samples (keys p << 32 | q, p < q), then the entries are
-  // grouped by edge.  Far cheaper than circulating around every edge.
-  if (samples_.size() >> 32) throw std::length_error("more than 2**32 samples");
-  std::vector<std::array<double, 3>> centre;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> entry;
-  entry.reserve(6 * dt_.number_of_finite_cells());
-  std::uint64_t key[6];
-  for (auto c = dt_.all_cells_begin(); c != dt_.all_cells_end(); ++c) {
-    int n_keys = 0;
-    for (int a = 0; a < 4; ++a) {
-      Vertex_handle va = c->vertex(a);
-      if (dt_.is_infinite(va) || is_dummy(va)) continue;
-      for (int b = a + 1; b < 4; ++b) {
-        Vertex_handle vb = c->vertex(b);
-        if (dt_.is_infinite(vb) || is_dummy(vb)) continue;
-        std::uint64_t x = static_cast<std::uint64_t>(va->info().id);
-        std::uint64_t y = static_cast<std::uint64_t>(vb->info().id);
-        if (x > y) std::swap(x, y);
-        key[n_keys++] = x << 32 | y;
-      }
-    }
-    if (n_keys == 0) continue;
-    // Dummies surround the samples, so no edge between samples is on the
-    // hull; an infinite cell here means the triangulation is broken.
-    if (dt_.is_infinite(c))
-      throw std::runtime_error("a Delaunay edge between samples has an infinite incident cell");
-    const auto index = static_cast<std::uint32_t>(centre.size());
-    centre.push_back(circumcentre(c));
-    for (int k = 0; k < n_keys; ++k) entry.emplace_back(key[k], index);
-  }
-  std::sort(entry.begin(), entry.end());
+  // samples and of its edges between samples; the edge entries are then
+  // grouped by lower sample (a counting sort) and, within it, by the other.
+  const std::size_t n = samples_.size();
+  if (n >> 32) throw std::length_error("more than 2**32 samples");
   const double inf = std::numeric_limits<double>::infinity();
-  edges.clear();
-  boxes.clear();
-  for (std::size_t g = 0; g < entry.size();) {
-    const std::uint64_t k = entry[g].first;
-    edges.push_back(static_cast<std::int64_t>(k >> 32));
-    edges.push_back(static_cast<std::int64_t>(k & 0xffffffffULL));
-    double box[6] = {inf, inf, inf, -inf, -inf, -inf};
-    for (; g < entry.size() && entry[g].first == k; ++g) {
-      const auto& cc = centre[entry[g].second];
+  cell_boxes.assign(6 * n, inf);
+  for (std::size_t v = 0; v < n; ++v)
+    for (int d = 0; d < 3; ++d) cell_boxes[6 * v + 3 + d] = -inf;
+  std::vector<std::array<double, 3>> centre;
+  struct Entry {
+    std::uint32_t p, q, cell;
+  };
+  std::vector<Entry> entry;
+  entry.reserve(6 * dt_.number_of_finite_cells());
+  std::vector<std::uint32_t> per(n + 1, 0);
+  for (auto c = dt_.all_cells_begin(); c != dt_.all_cells_end(); ++c) {
+    std::int64_t id[4];
+    int k = 0;
+    for (int a = 0; a < 4; ++a) {
+      Vertex_handle v = c->vertex(a);
+      if (!is_dummy(v)) id[k++] = v->info().id;
+    }
+    if (k == 0) continue;
+    if (dt_.is_infinite(c)) {
+      // Dummies surround the samples, so no edge between samples is on the
+      // hull; an infinite cell here means the triangulation is broken.
+      if (k >= 2)
+        throw std::runtime_error("a Delaunay edge between samples has an infinite incident cell");
+      for (int d = 0; d < 3; ++d) {
+        cell_boxes[6 * id[0] + d] = -inf;
+        cell_boxes[6 * id[0] + 3 + d] = inf;
+      }
+      continue;
+    }
+    const auto& cc = circumcentre(c);
+    for (int a = 0; a < k; ++a) {
+      double* box = &cell_boxes[6 * id[a]];
       for (int d = 0; d < 3; ++d) {
         box[d] = std::min(box[d], cc[d]);
         box[3 + d] = std::max(box[3 + d], cc[d]);
       }
     }
-    boxes.insert(boxes.end(), box, box + 6);
+    if (k < 2) continue;
+    const auto index = static_cast<std::uint32_t>(centre.size());
+    centre.push_back(cc);
+    for (int a = 0; a < k; ++a)
+      for (int b = a + 1; b < k; ++b) {
+        const auto p = static_cast<std::uint32_t>(std::min(id[a], id[b]));
+        const auto q = static_cast<std::uint32_t>(std::max(id[a], id[b]));
+        entry.push_back({p, q, index});
+        ++per[p + 1];
+      }
+  }
+  for (std::size_t v = 0; v < n; ++v) per[v + 1] += per[v];
+  std::vector<Entry> by_p(entry.size());
+  {
+    std::vector<std::uint32_t> at(per.begin(), per.end() - 1);
+    for (const Entry& e : entry) by_p[at[e.p]++] = e;
+  }
+  edges.clear();
+  facet_boxes.clear();
+  for (std::size_t v = 0; v < n; ++v) {
+    auto first = by_p.begin() + per[v], last = by_p.begin() + per[v + 1];
+    std::sort(first, last, [](const Entry& x, const Entry& y) { return x.q < y.q; });
+    for (auto g = first; g != last;) {
+      const std::uint32_t q = g->q;
+      edges.push_back(static_cast<std::int64_t>(v));
+      edges.push_back(static_cast<std::int64_t>(q));
+      double box[6] = {inf, inf, inf, -inf, -inf, -inf};
+      for (; g != last && g->q == q; ++g) {
+        const auto& cc = centre[g->cell];
+        for (int d = 0; d < 3; ++d) {
+          box[d] = std::min(box[d], cc[d]);
+          box[3 + d] = std::max(box[3 + d], cc[d]);
+        }
+      }
+      facet_boxes.insert(facet_boxes.end(), box, box + 6);
+    }
   }
 }
 

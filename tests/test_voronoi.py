@@ -74,9 +74,9 @@ def test_delaunay_edges_of_stars():
     assert np.array_equal(rdt.delaunay_edges(np.arange(len(x))), every)
 
 
-def test_every_edge_and_its_facet_box_in_one_pass():
+def test_every_edge_and_its_facet_box_and_every_cell_box_in_one_pass():
     rdt, x = _cloud(2, 150)
-    edges, box = rdt.voronoi_facet_boxes()
+    edges, box, cell_box = rdt.voronoi_boxes()
     # The same edges as the sample's neighbour lists, sorted and each once.
     offs, adj = rdt.neighbours(np.arange(len(x)))
     src = np.repeat(np.arange(len(x)), np.diff(offs))
@@ -88,6 +88,8 @@ def test_every_edge_and_its_facet_box_in_one_pass():
     off, pts, _, _ = rdt.voronoi_facets(edges)
     assert np.array_equal(box[:, 0], np.minimum.reduceat(pts, off[:-1], axis=0))
     assert np.array_equal(box[:, 1], np.maximum.reduceat(pts, off[:-1], axis=0))
+    # And each sample's cell box, as the core finds it from the sample's star.
+    assert np.array_equal(cell_box, rdt.voronoi_cell_boxes(np.arange(len(x))))
 
 
 @pytest.mark.parametrize(

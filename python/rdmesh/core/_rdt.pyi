@@ -197,11 +197,12 @@ class RestrictedDelaunay:
         npt.NDArray[np.int64],  # (T,) distinct-cell index of each vertex
         npt.NDArray[np.int64],  # (T,) third vertex of each dual facet, -1: dummy
     ]: ...
-    def voronoi_facet_boxes(
+    def voronoi_boxes(
         self,
     ) -> tuple[
         npt.NDArray[np.int64],  # (m, 2) every Delaunay edge between samples
         npt.NDArray[np.float64],  # (m, 2, 3) the bounding box of its Voronoi facet
+        npt.NDArray[np.float64],  # (samples, 2, 3) every sample's Voronoi cell box
     ]: ...
     def voronoi_cell_boxes(self, ids: npt.ArrayLike) -> npt.NDArray[np.float64]: ...
     def delaunay_edges(self, ids: npt.ArrayLike | None = None) -> npt.NDArray[np.int64]: ...

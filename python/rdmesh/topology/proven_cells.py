@@ -102,10 +102,11 @@ class CellGeometry:
     hi: np.ndarray
     offsets: np.ndarray  # (n + 1,) CSR of each sample's neighbours
     neighbour: np.ndarray  # (2 m,)
+    cell_box: np.ndarray  # (n, 2, 3) each sample's Voronoi cell box (+-inf if unbounded)
 
     @classmethod
     def of(cls, rdt, vertices: np.ndarray, centre: np.ndarray, radius: float) -> CellGeometry:
-        edges, box = rdt.voronoi_facet_boxes()
+        edges, box, cell_box = rdt.voronoi_boxes()
         # Circumcentres are rounded: widen a little.
         lo = np.clip(box[:, 0] - 1e-9 * radius, centre - radius, centre + radius)
         hi = np.clip(box[:, 1] + 1e-9 * radius, centre - radius, centre + radius)
@@ -114,7 +115,7 @@ class CellGeometry:
         dst = np.concatenate([edges[:, 1], edges[:, 0]])
         order = np.argsort(src, kind="stable")
         offsets = np.r_[0, np.cumsum(np.bincount(src, minlength=n))]
-        return cls(edges, lo, hi, offsets, dst[order])
+        return cls(edges, lo, hi, offsets, dst[order], cell_box)
 
 
 def proven_loop_test(
@@ -225,7 +226,7 @@ def prove_cells(
         done, cells = cells[known], cells[~known]
     # Each cell's bounding box (its vertices are circumcentres, rounded: widen
     # a little), cut to the cube around the bounding sphere.
-    box = rdt.voronoi_cell_boxes(cells)
+    box = geometry.cell_box[cells]
     c, R = surface.centre, surface.radius
     pad = 1e-9 * R
     lo = np.clip(box[:, 0] - pad, c - R, c + R)
