@@ -78,6 +78,31 @@ def test_discovery_puts_a_point_on_every_component(case):
         assert d.min() < 1e-7 * radius, (centre, r)
 
 
+def test_discovery_boxes_with_two_monotone_partials_meet_the_face_condition():
+    # Such boxes are good without bounding their faces: check on random
+    # boxes near a torus that the faces, bounded, would have agreed.
+    text = "(x**2 + y**2 + z**2 + 1 - 0.16)**2 - 4*(x**2 + y**2)"
+    s = _surface(text, 2.0)
+    rng = np.random.default_rng(6)
+    size = 0.05
+    lo = rng.uniform(-1.5, 1.5, (20000, 3))
+    enc = s.f.interval_gradient(lo, lo + size)
+    mono = ((enc.glo > 0) | (enc.ghi < 0)) & ~enc.undefined[:, None]
+    two = np.flatnonzero(mono.sum(axis=1) >= 2)
+    assert len(two) > 500
+    for k in range(3):
+        rows = two[mono[two, k]]
+        inplane = [i for i in range(3) if i != k]
+        for side in (0.0, size):
+            flo = lo[rows].copy()
+            flo[:, k] += side
+            fhi = lo[rows] + size
+            fhi[:, k] = flo[:, k]
+            e = s.f.interval_gradient(flo, fhi)
+            flat = ((e.glo[:, inplane] > 0) | (e.ghi[:, inplane] < 0)).any(axis=1)
+            assert np.all(flat | (e.lo > 0) | (e.hi < 0))
+
+
 def test_discovery_leaves_singular_and_undefined_regions_unresolved():
     """Two spheres touching at (1, 0, 0), where grad f = 0: the boxes there
     never settle, so the discovery is not proven and names the region; the
