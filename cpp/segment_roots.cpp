@@ -120,13 +120,15 @@ SegmentRoots isolate_segment_roots(const std::vector<IntervalInstruction>& progr
   return out;
 }
 
-SegmentPieces segment_pieces(const double* a, const double* b, const std::int64_t* host,
-                             std::size_t n, const std::int64_t* first, const double* lo,
-                             const double* hi, double slack) {
-  SegmentPieces out;
+namespace {
+
+// Segments [begin, end) of segment_pieces, into `out`.
+void pieces_range(const double* a, const double* b, const std::int64_t* host, std::size_t begin,
+                  std::size_t end, const std::int64_t* first, const double* lo, const double* hi,
+                  double slack, SegmentPieces& out) {
   std::vector<Piece> parts;
   const double inf = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = begin; i < end; ++i) {
     const std::int64_t h = host[i];
     if (h < 0) {
       out.segment.push_back(static_cast<std::int64_t>(i));
@@ -163,6 +165,28 @@ SegmentPieces segment_pieces(const double* a, const double* b, const std::int64_
       out.t0.push_back(m.t0);
       out.t1.push_back(m.t1);
     }
+  }
+}
+
+}  // namespace
+
+SegmentPieces segment_pieces(const double* a, const double* b, const std::int64_t* host,
+                             std::size_t n, const std::int64_t* first, const double* lo,
+                             const double* hi, double slack) {
+  // Chunks over the cores, joined in order: by segment, then t0.
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<SegmentPieces> parts(chunks);
+  for_each_on_cores(
+      chunks, [] { return 0; },
+      [&](int&, std::size_t c) {
+        pieces_range(a, b, host, c * kChunk, std::min(n, (c + 1) * kChunk), first, lo, hi, slack,
+                     parts[c]);
+      });
+  SegmentPieces out;
+  for (const auto& p : parts) {
+    out.segment.insert(out.segment.end(), p.segment.begin(), p.segment.end());
+    out.t0.insert(out.t0.end(), p.t0.begin(), p.t0.end());
+    out.t1.insert(out.t1.end(), p.t1.begin(), p.t1.end());
   }
   return out;
 }
