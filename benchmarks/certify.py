@@ -12,6 +12,7 @@ certify mode by both methods. A false certificate is ``topology_certified``
 on a mesh whose components or Euler characteristics differ from the truth.
 
     python benchmarks/certify.py [--repeats 2] [--method NAME] [--skip-hard] [--json PATH]
+        [--fractions none 20 ...] [--surfaces NAME ...]
 
 Prints markdown tables; writes a JSON record (default
 ``benchmarks/results/<date>-certify.json``).
@@ -117,12 +118,18 @@ def _run(text, sphere, *, certify, **kw) -> dict:
 
 
 def cost(
-    repeats: int, method: str = "topological-ball", fractions: tuple = (None, 20.0)
+    repeats: int,
+    method: str = "topological-ball",
+    fractions: tuple = (None, 20.0),
+    surfaces: tuple | None = None,
 ) -> list[dict]:
-    """Part 1: each public surface, sampled and certified, alternating, with the
-    radius bound R / fraction for each of ``fractions`` (None: no size bound)."""
+    """Part 1: each public surface (or those named), sampled and certified,
+    alternating, with the radius bound R / fraction for each of ``fractions``
+    (None: no size bound)."""
     rows = []
     for name, text in BUILTIN_EXPRESSIONS.items():
+        if surfaces is not None and name not in surfaces:
+            continue
         info = SURFACES[name]
         made = info.make()
         radius = float(made.radius)
@@ -219,6 +226,13 @@ def main(argv: list[str] | None = None) -> int:
         default=["none", "20"],
         help="radius bounds of the cost part, as R / fraction ('none': no size bound)",
     )
+    ap.add_argument(
+        "--surfaces",
+        nargs="+",
+        choices=sorted(BUILTIN_EXPRESSIONS),
+        default=None,
+        help="the cost part's surfaces (default: all)",
+    )
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     logging.getLogger("rdmesh").setLevel(logging.WARNING)
@@ -228,7 +242,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--fractions takes numbers or 'none', got {args.fractions}")
     if any(f is not None and not f > 0 for f in fractions):
         ap.error("--fractions must be positive")
-    costs = [] if args.skip_cost else cost(args.repeats, args.method, fractions)
+    costs = [] if args.skip_cost else cost(args.repeats, args.method, fractions, args.surfaces)
     cases = [] if args.skip_hard else hard()
     text = _markdown(costs, cases, args.method)
     print(text)
