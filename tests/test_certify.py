@@ -254,6 +254,19 @@ def test_proven_edge_test_gives_the_same_counts_from_the_proven_cells(text):
     assert part.boxes < whole.boxes  # and with less work
 
 
+def test_chords_pair_the_two_restricted_facets_of_an_edge():
+    from rdmesh.topology.proven_cells import _chords, _edge_keys
+
+    edges = np.array([[0, 1], [0, 2], [1, 2], [1, 3], [2, 3], [3, 4]])
+    tri = np.array([[2, 1, 0], [1, 3, 2], [3, 4, 9]])  # (1, 2) is in the first two only
+    centres = np.array([[0.0, 0, 0], [1.0, 2, 3], [5.0, 5, 5]])
+    for order in (np.arange(6), np.array([5, 3, 0, 4, 2, 1])):  # sorted, and not
+        rows, chord = _chords(_edge_keys(edges[order]), tri, centres)
+        assert np.array_equal(edges[order][rows], [[1, 2]])
+        # Between the two facets' centres (either way: the sign does not matter).
+        assert np.array_equal(np.abs(chord), [[1.0, 2, 3]])
+
+
 def test_proof_memo_keeps_the_leaves_of_unchanged_cells():
     # A second proof after a few insertions reuses the clean cells that did
     # not change: their leaves must be exactly a fresh proof's.

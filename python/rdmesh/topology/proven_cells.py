@@ -40,7 +40,7 @@ import numpy as np
 
 from .._newton import damped_step
 from .._tol import ON_SURFACE, PROOF_BOX_FLOOR, PROOF_BOX_RELATIVE, TINY
-from .._vectors import row_index, row_norms
+from .._vectors import row_norms
 from ..core import boxes_outside_cells, prove_boxes
 from ..surfaces.expressions import Expression
 from ..surfaces.intervals import dot_bounds, native_program
@@ -160,7 +160,7 @@ def proven_loop_test(
         surface, geometry.lo[live], geometry.hi[live], mid[live], normal[live]
     )
     if tri is not None and len(tri):
-        rows, chord = _chords(e, tri, centres)
+        rows, chord = _chords(keys, tri, centres)
         across = np.cross(normal[rows], chord)
         ok = row_norms(across) > TINY
         direction[rows[ok]] = across[ok] / row_norms(across[ok])[:, None]
@@ -432,10 +432,12 @@ class _Proof(Violations):
     owners: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
-def _chords(edges: np.ndarray, tri: np.ndarray, centres: np.ndarray):
-    """For Delaunay edges in exactly two restricted facets: the edge's row in
-    ``edges`` and the chord between the two facets' surface centres (the ends
-    of the surface's arc in the edge's Voronoi facet)."""
+def _chords(keys: np.ndarray, tri: np.ndarray, centres: np.ndarray):
+    """For Delaunay edges (their :func:`_edge_keys` ``keys``) in exactly two
+    restricted facets: the edge's row and the chord between the two facets'
+    surface centres (the ends of the surface's arc in the edge's Voronoi facet)."""
+    if len(keys) == 0:
+        return np.zeros(0, np.int64), np.zeros((0, 3))
     t = np.sort(tri, axis=1)
     pairs = np.concatenate([t[:, [0, 1]], t[:, [0, 2]], t[:, [1, 2]]])
     owner = np.tile(np.arange(len(t)), 3)
@@ -447,8 +449,12 @@ def _chords(edges: np.ndarray, tri: np.ndarray, centres: np.ndarray):
     count = np.diff(np.r_[start, len(key)])
     two = start[count == 2]
     a, b = centres[owner[two]], centres[owner[two + 1]]
-    rows = row_index(pairs[order[two]], edges)
-    ok = rows >= 0
+    # The edges come sorted (CellGeometry); sort them here otherwise.
+    sorter = None if np.all(keys[1:] > keys[:-1]) else np.argsort(keys)
+    at = np.searchsorted(keys, key[two], sorter=sorter)
+    at = np.minimum(at, len(keys) - 1)
+    rows = at if sorter is None else sorter[at]
+    ok = keys[rows] == key[two]
     return rows[ok], (b - a)[ok]
 
 
