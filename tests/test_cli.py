@@ -302,6 +302,10 @@ def test_time_limit_writes_the_partial_mesh(tmp_path):
     assert len(load(tmp_path / "p.obj").faces) > 0
 
 
+def _default_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _interrupt_after_first_round(tmp_path, *gaps: float):
     """Run a minute-long mesh job, and once refinement rounds have begun (the
     progress bar, on stderr after a second, shows the round) send SIGINT, and
@@ -314,6 +318,9 @@ def _interrupt_after_first_round(tmp_path, *gaps: float):
         [sys.executable, "-m", "rdmesh", "mesh", "torus", "--radius", "0.004",
          "--time-limit", "3600", "-o", "int.ply"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        # A shell's background job ignores SIGINT, and so would rdmesh (Python
+        # keeps an inherited SIG_IGN): give it the default, as in a terminal.
+        preexec_fn=_default_sigint,
     )  # fmt: skip
     watchdog = threading.Timer(900, proc.kill)
     watchdog.daemon = True
