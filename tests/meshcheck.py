@@ -32,30 +32,37 @@ def boundary_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return b, np.unique(b)
 
 
+def _link_graph(faces: np.ndarray, n_vertices: int):
+    """Every vertex's link as one graph: the link of ``v`` in face ``(v, w1, w2)``
+    is the edge ``w1-w2``. Returns each link node's owner vertex, its degree
+    and the label of its connected piece."""
+    f = np.asarray(faces, dtype=np.int64)
+    v = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
+    w1 = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
+    w2 = np.concatenate([f[:, 2], f[:, 0], f[:, 1]])
+    n = np.int64(n_vertices)
+    nodes, inv = np.unique(np.concatenate([v * n + w1, v * n + w2]), return_inverse=True)
+    degree = np.bincount(inv, minlength=len(nodes))
+    m = len(nodes)
+    g = coo_matrix((np.ones(len(v)), (inv[: len(v)], inv[len(v) :])), shape=(m, m))
+    _, label = connected_components(g, directed=False)
+    return nodes // n, degree, label
+
+
+def _pieces_per_vertex(owner, label, n_vertices: int) -> np.ndarray:
+    pairs = np.unique(np.column_stack([owner, label]), axis=0)
+    return np.bincount(pairs[:, 0], minlength=n_vertices)
+
+
 def vertex_link_cycles(faces: np.ndarray, n_vertices: int) -> np.ndarray:
     """For each vertex, the number of cycles in its link, or -1 if the link is
     not a disjoint union of cycles (some link vertex has degree != 2).
 
     Vertices without faces get 0.
     """
-    f = np.asarray(faces, dtype=np.int64)
-    a, b, c = f[:, 0], f[:, 1], f[:, 2]
-    # The link of v in face (v, w1, w2) is the edge w1-w2.
-    v = np.concatenate([a, b, c])
-    w1 = np.concatenate([b, c, a])
-    w2 = np.concatenate([c, a, b])
-    n = np.int64(n_vertices)
-    k1, k2 = v * n + w1, v * n + w2
-    nodes, inv = np.unique(np.concatenate([k1, k2]), return_inverse=True)
-    degree = np.bincount(inv, minlength=len(nodes))
-    m = len(nodes)
-    g = coo_matrix((np.ones(len(k1)), (inv[: len(k1)], inv[len(k1) :])), shape=(m, m))
-    _, label = connected_components(g, directed=False)
-    owner = nodes // n
-    pairs = np.unique(np.column_stack([owner, label]), axis=0)
-    cycles = np.bincount(pairs[:, 0], minlength=n_vertices)
-    bad_owner = np.unique(owner[degree != 2])
-    cycles[bad_owner] = -1
+    owner, degree, label = _link_graph(faces, n_vertices)
+    cycles = _pieces_per_vertex(owner, label, n_vertices)
+    cycles[np.unique(owner[degree != 2])] = -1
     return cycles
 
 
@@ -97,19 +104,8 @@ def vertex_link_paths(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, n
     one piece of degree at most 2: one cycle, or one path. Vertices without
     faces get ``(0, 0)``.
     """
-    f = np.asarray(faces, dtype=np.int64)
-    v = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
-    w1 = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
-    w2 = np.concatenate([f[:, 2], f[:, 0], f[:, 1]])
-    n = np.int64(n_vertices)
-    nodes, inv = np.unique(np.concatenate([v * n + w1, v * n + w2]), return_inverse=True)
-    degree = np.bincount(inv, minlength=len(nodes))
-    m = len(nodes)
-    g = coo_matrix((np.ones(len(v)), (inv[: len(v)], inv[len(v) :])), shape=(m, m))
-    _, label = connected_components(g, directed=False)
-    owner = nodes // n
-    pairs = np.unique(np.column_stack([owner, label]), axis=0)
-    pieces = np.bincount(pairs[:, 0], minlength=n_vertices)
+    owner, degree, label = _link_graph(faces, n_vertices)
+    pieces = _pieces_per_vertex(owner, label, n_vertices)
     top = np.zeros(n_vertices, dtype=np.int64)
     np.maximum.at(top, owner, degree)
     return pieces, top

@@ -189,12 +189,12 @@ def _octahedron(r=1.0):
 
 
 def test_proven_silhouette_fails_on_hemispheres_and_holds_on_smaller_cells():
-    from rdmesh.topology.proven_cells import proven_silhouette_test
+    from rdmesh.topology.proven_cells import prove_cells
 
     sphere = "x**2 + y**2 + z**2 - 1"
     # Two samples: each cell holds a closed hemisphere, whose rim is a silhouette.
     s, rdt, v, n, geo, tree = _cells(sphere, [[0, 0, 1], [0, 0, -1]])
-    out = proven_silhouette_test(s, rdt, v, n, geo, tree, [0, 1])
+    out = prove_cells(s, rdt, v, n, geo, tree, [0, 1]).violations
     assert out.count == 2
     # Every refinement point is on the sphere, near the rim.
     assert np.allclose(np.linalg.norm(out.centres, axis=1), 1, atol=1e-8)
@@ -202,7 +202,7 @@ def test_proven_silhouette_fails_on_hemispheres_and_holds_on_smaller_cells():
     # Six samples (an octahedron): every cell's patch has normals within 55
     # degrees of its sample's; the proof holds.
     s, rdt, v, n, geo, tree = _cells(sphere, _octahedron())
-    out = proven_silhouette_test(s, rdt, v, n, geo, tree, np.arange(6))
+    out = prove_cells(s, rdt, v, n, geo, tree, np.arange(6)).violations
     assert out.count == 0
 
 

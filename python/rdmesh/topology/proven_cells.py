@@ -26,9 +26,14 @@ and are violations there.
     a disk, and a closed component inside ``V_p`` is ruled out too (it would
     have a silhouette point along every direction).
 
-Boxes start as the bounding box of each Voronoi facet's polygon, or of each
-cell's vertices, cut to the cube around the bounding sphere. A
-violation's refinement point is the centre of an unsettled box moved onto the
+A cell's boxes start as the bounding box of its vertices, cut to the cube
+around the bounding sphere. The cells are proven first (:func:`prove_cells`):
+a proven cell's *leaves*, the boxes its gradient bounds settled, hold all of
+its part of the surface, since every other box was dropped for lying outside
+the cell or holding no zero. A facet lies in the cell of its lower sample, so
+its boxes start as that cell's leaves cut to the facet polygon's bounding box
+(or as that box alone where the cell is not proven): the way down to the
+surface is taken once per cell, not once per facet. A violation's refinement point is the centre of an unsettled box moved onto the
 surface by Newton's method, with the empty ball reaching its nearest sample.
 """
 
@@ -260,20 +265,6 @@ def prove_cells(
     if memo is not None:
         memo.cells = proof
     return proof
-
-
-def proven_silhouette_test(
-    surface: ImplicitSurface,
-    rdt,
-    vertices,
-    normals,
-    geometry: CellGeometry,
-    tree,
-    cells,
-    memo: ProofMemo | None = None,
-) -> Violations:
-    """The silhouette test on the Voronoi cells of ``cells`` (sample ids), with proof."""
-    return prove_cells(surface, rdt, vertices, normals, geometry, tree, cells, memo).violations
 
 
 def _floor(surface: ImplicitSurface, lo, hi) -> np.ndarray:
