@@ -98,13 +98,15 @@ def isolate_roots(
     b = np.asarray(b, np.float64).reshape(-1, 3)
     n = len(a)
     if pieces is None:
-        seg, t0, t1 = np.arange(n), np.zeros(n), np.ones(n)
+        seg, t0, t1 = np.arange(n), None, None
         pa, pb = a, b
     else:
         seg, t0, t1 = (np.asarray(x) for x in pieces)
         pa, pb = a[seg], b[seg]
     program = native_program(expr)
     if program is None:
+        if t0 is None:
+            t0, t1 = np.zeros(n), np.ones(n)
         fs, flo, fhi, ps, plo, phi, boxes = _isolate_numpy(expr, pa, pb, t0, t1, min_length)
     else:
         fs, flo, fhi, ps, plo, phi, boxes = isolate_segment_roots(

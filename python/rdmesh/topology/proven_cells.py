@@ -33,8 +33,9 @@ its part of the surface, since every other box was dropped for lying outside
 the cell or holding no zero. A facet lies in the cell of its lower sample, so
 its boxes start as that cell's leaves cut to the facet polygon's bounding box
 (or as that box alone where the cell is not proven): the way down to the
-surface is taken once per cell, not once per facet. A violation's refinement point is the centre of an unsettled box moved onto the
-surface by Newton's method, with the empty ball reaching its nearest sample.
+surface is taken once per cell, not once per facet. A violation's refinement
+point is the centre of an unsettled box moved onto the surface by Newton's
+method, with the empty ball reaching its nearest sample.
 """
 
 from __future__ import annotations
@@ -107,20 +108,29 @@ class CellGeometry:
     hi: np.ndarray
     offsets: np.ndarray  # (n + 1,) CSR of each sample's neighbours
     neighbour: np.ndarray  # (2 m,)
-    cell_box: np.ndarray  # (n, 2, 3) each sample's Voronoi cell box (+-inf if unbounded)
+    cell_lo: np.ndarray  # (n, 3) bounding box of each sample's Voronoi cell, cut to the cube
+    cell_hi: np.ndarray
 
     @classmethod
     def of(cls, rdt, vertices: np.ndarray, centre: np.ndarray, radius: float) -> CellGeometry:
         edges, box, cell_box = rdt.voronoi_boxes()
-        # Circumcentres are rounded: widen a little.
-        lo = np.clip(box[:, 0] - 1e-9 * radius, centre - radius, centre + radius)
-        hi = np.clip(box[:, 1] + 1e-9 * radius, centre - radius, centre + radius)
+        lo, hi = _cut(box, centre, radius)
+        cell_lo, cell_hi = _cut(cell_box, centre, radius)
         n = len(vertices)
         src = np.concatenate([edges[:, 0], edges[:, 1]])
         dst = np.concatenate([edges[:, 1], edges[:, 0]])
         order = np.argsort(src, kind="stable")
         offsets = np.r_[0, np.cumsum(np.bincount(src, minlength=n))]
-        return cls(edges, lo, hi, offsets, dst[order], cell_box)
+        return cls(edges, lo, hi, offsets, dst[order], cell_lo, cell_hi)
+
+
+def _cut(box: np.ndarray, centre: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Boxes ``(k, 2, 3)`` of circumcentres widened a little (they are rounded)
+    and cut to the cube around the bounding sphere: ``(lo, hi)``."""
+    pad = 1e-9 * radius
+    lo = np.clip(box[:, 0] - pad, centre - radius, centre + radius)
+    hi = np.clip(box[:, 1] + pad, centre - radius, centre + radius)
+    return lo, hi
 
 
 def proven_loop_test(
@@ -229,13 +239,7 @@ def prove_cells(
         _, dirty = memo.touched(rdt, memo.cell_samples, len(vertices))
         known = np.isin(cells, memo.clean_cells) & ~np.isin(cells, dirty)
         done, cells = cells[known], cells[~known]
-    # Each cell's bounding box (its vertices are circumcentres, rounded: widen
-    # a little), cut to the cube around the bounding sphere.
-    box = geometry.cell_box[cells]
-    c, R = surface.centre, surface.radius
-    pad = 1e-9 * R
-    lo = np.clip(box[:, 0] - pad, c - R, c + R)
-    hi = np.clip(box[:, 1] + pad, c - R, c + R)
+    lo, hi = geometry.cell_lo[cells], geometry.cell_hi[cells]
 
     out, leaves = _prove(
         "proven_silhouette", surface, vertices, tree, geometry, lo, hi, cells,
