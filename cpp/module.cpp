@@ -738,6 +738,14 @@ PYBIND11_MODULE(_rdt, m) {
           "Facets whose status was derived from a KNOWN one instead of being handed "
           "out again (see changed_facets), since construction.")
       .def_property_readonly(
+          "exact_circumcentres",
+          [](RestrictedDelaunay& self) {
+            return locked(self, [&] { return self.exact_circumcentres(); });
+          },
+          "Circumcentres computed in exact arithmetic, since construction: those "
+          "whose double value was not equidistant from the cell's four vertices "
+          "to 1e-12 (relative, on squared distances).")
+      .def_property_readonly(
           "number_of_cells",
           [](RestrictedDelaunay& self) {
             return locked(self, [&] { return self.number_of_cells(); });

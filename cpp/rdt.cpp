@@ -25,6 +25,11 @@ bool finite3(const double* p) {
 
 Vec3 to_vec(const Point& p) { return {p.x(), p.y(), p.z()}; }
 
+// Largest spread of a circumcentre's squared distances to its cell's four
+// vertices, relative to the largest, accepted from doubles (well-shaped cells
+// give about 1e-15; the centre is then off by about 1e-12 of the radius at most).
+constexpr double kEquidistance = 1e-12;
+
 bool lex_less(const Vec3& a, const Vec3& b) {
   return std::lexicographical_compare(a.begin(), a.end(), b.begin(), b.end());
 }
@@ -121,14 +126,108 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
   return ids;
 }
 
+namespace {
+
+// Spread of the squared distances from x to the four points, relative to the
+// largest (T: the arithmetic it is computed in).
+template <typename T>
+T spread(const std::array<T, 3>& x, const Point* const v[4]) {
+  T lo = std::numeric_limits<T>::infinity(), hi = 0;
+  for (int i = 0; i < 4; ++i) {
+    const T d[3] = {x[0] - T(v[i]->x()), x[1] - T(v[i]->y()), x[2] - T(v[i]->z())};
+    const T d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    lo = std::min(lo, d2);
+    hi = std::max(hi, d2);
+  }
+  return (hi - lo) / hi;  // NaN for a non-finite x
+}
+
+// The circumcentre in T arithmetic, by Cramer's rule on coordinates relative
+// to the first point.
+template <typename T>
+std::array<T, 3> circumcentre_in(const Point* const v[4]) {
+  T m[3][3], rhs[3];
+  for (int i = 0; i < 3; ++i) {
+    m[i][0] = T(v[i + 1]->x()) - T(v[0]->x());
+    m[i][1] = T(v[i + 1]->y()) - T(v[0]->y());
+    m[i][2] = T(v[i + 1]->z()) - T(v[0]->z());
+    rhs[i] = (m[i][0] * m[i][0] + m[i][1] * m[i][1] + m[i][2] * m[i][2]) / 2;
+  }
+  auto det = [](const T a[3][3]) -> T {
+    return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+           a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+           a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+  };
+  const T d = det(m);
+  std::array<T, 3> out{};
+  const T base[3] = {T(v[0]->x()), T(v[0]->y()), T(v[0]->z())};
+  for (int k = 0; k < 3; ++k) {
+    T a[3][3];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) a[i][j] = j == k ? rhs[i] : m[i][j];
+    out[k] = base[k] + det(a) / d;
+  }
+  return out;
+}
+
+// The circumcentre of four points from their exact rational coordinates,
+// rounded to doubles.
+Vec3 exact_circumcentre(const Point& p, const Point& q, const Point& r, const Point& s) {
+  using Q = CGAL::Exact_rational;
+  const Q px(p.x()), py(p.y()), pz(p.z());
+  const Q m[3][3] = {{Q(q.x()) - px, Q(q.y()) - py, Q(q.z()) - pz},
+                     {Q(r.x()) - px, Q(r.y()) - py, Q(r.z()) - pz},
+                     {Q(s.x()) - px, Q(s.y()) - py, Q(s.z()) - pz}};
+  Q rhs[3];
+  for (int i = 0; i < 3; ++i)
+    rhs[i] = Q(m[i][0] * m[i][0] + m[i][1] * m[i][1] + m[i][2] * m[i][2]) / 2;
+  // Returns Q, not gmpxx's expression template (which would dangle).
+  auto det = [](const Q a[3][3]) -> Q {
+    return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+           a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+           a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+  };
+  const Q d = det(m);  // nonzero: the cell is not flat
+  Vec3 out{};
+  const Q base[3] = {px, py, pz};
+  for (int k = 0; k < 3; ++k) {
+    Q a[3][3];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) a[i][j] = j == k ? rhs[i] : m[i][j];
+    const Q x = base[k] + det(a) / d;
+    out[k] = CGAL::to_double(x);
+  }
+  return out;
+}
+
+}  // namespace
+
 const std::array<double, 3>& RestrictedDelaunay::circumcentre(Cell_handle c) {
   CellInfo& info = c->info();
-  if (std::isnan(info.cc[0])) {
-    // Filtered: doubles when certified, exact construction otherwise.
-    static const CGAL::Robust_circumcenter_filtered_traits_3<K> traits;
-    static const auto cc = traits.construct_circumcenter_3_object();
-    info.cc = to_vec(cc(c->vertex(0)->point(), c->vertex(1)->point(),
-                        c->vertex(2)->point(), c->vertex(3)->point()));
+  if (std::isnan(info.cc[0]) && dt_.is_infinite(c)) {
+    // No centre; callers skip infinite cells.
+    info.cc.fill(std::numeric_limits<double>::infinity());
+  } else if (std::isnan(info.cc[0])) {
+    const Point* v[4] = {&c->vertex(0)->point(), &c->vertex(1)->point(),
+                         &c->vertex(2)->point(), &c->vertex(3)->point()};
+    // A Voronoi vertex must be equidistant from its four samples. Doubles
+    // lose that on nearly flat cells with nearly cocircular vertices (as
+    // regular samples make); long doubles, then exact arithmetic, settle them.
+    const Point x = CGAL::circumcenter(*v[0], *v[1], *v[2], *v[3]);
+    const std::array<double, 3> xd = to_vec(x);
+    if (spread(xd, v) <= kEquidistance) {
+      info.cc = xd;
+    } else {
+      const auto xl = circumcentre_in<long double>(v);
+      const std::array<double, 3> rounded{static_cast<double>(xl[0]), static_cast<double>(xl[1]),
+                                          static_cast<double>(xl[2])};
+      if (spread(xl, v) <= kEquidistance && spread(rounded, v) <= kEquidistance) {
+        info.cc = rounded;
+      } else {
+        ++exact_circumcentres_;
+        info.cc = exact_circumcentre(*v[0], *v[1], *v[2], *v[3]);
+      }
+    }
   }
   return info.cc;
 }

@@ -22,7 +22,6 @@
 
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Robust_weighted_circumcenter_filtered_traits_3.h>
 #include <CGAL/Triangulation_cell_base_with_info_3.h>
 #include <CGAL/Triangulation_data_structure_3.h>
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
@@ -210,6 +209,9 @@ class RestrictedDelaunay {
   // Facets whose new status changed_facets derived from a KNOWN old one
   // instead of handing them out, since construction.
   std::uint64_t reused_facets() const { return reused_; }
+  // Circumcentres computed exactly because the double one was not
+  // equidistant from the cell's vertices (see circumcentre).
+  std::uint64_t exact_circumcentres() const { return exact_circumcentres_; }
   std::size_t number_of_cells() const { return dt_.number_of_finite_cells(); }
   std::vector<double> samples() const;
 
@@ -262,6 +264,7 @@ class RestrictedDelaunay {
   std::deque<Chunk> pending_;
   std::uint64_t serial_ = 0;  // chunks handed out so far
   std::uint64_t reused_ = 0;  // see reused_facets()
+  std::uint64_t exact_circumcentres_ = 0;  // see exact_circumcentres()
   mutable std::mutex mutex_;
   std::vector<Vertex_handle> round_vertices_;  // inserted before this round
   // Cells new in this round, gathered lazily (so the first chunk of a round

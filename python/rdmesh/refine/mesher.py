@@ -328,6 +328,7 @@ def _result(
         inserted=dict(m.samples.inserted),
         facets_evaluated=m.pipeline.evaluated,
         facets_reused=m.pipeline.rdt.reused_facets,
+        exact_circumcentres=m.pipeline.rdt.exact_circumcentres,
         phase_seconds={k: round(v, 4) for k, v in timing.items()},
         unresolved=len(mesh.unresolved),
         loop_facets_tested=m.memo.tested,
