@@ -142,8 +142,9 @@ T spread(const std::array<T, 3>& x, const Point* const v[4]) {
   return (hi - lo) / hi;  // NaN for a non-finite x
 }
 
-// The circumcentre in T arithmetic, by Cramer's rule on coordinates relative
-// to the first point.
+// The circumcentre in T arithmetic (long double, or CGAL::Exact_rational for
+// the exact one), by Cramer's rule on coordinates relative to the first point.
+// Every expression is stored in a T: gmpxx's expression templates would dangle.
 template <typename T>
 std::array<T, 3> circumcentre_in(const Point* const v[4]) {
   T m[3][3], rhs[3];
@@ -166,36 +167,6 @@ std::array<T, 3> circumcentre_in(const Point* const v[4]) {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) a[i][j] = j == k ? rhs[i] : m[i][j];
     out[k] = base[k] + det(a) / d;
-  }
-  return out;
-}
-
-// The circumcentre of four points from their exact rational coordinates,
-// rounded to doubles.
-Vec3 exact_circumcentre(const Point& p, const Point& q, const Point& r, const Point& s) {
-  using Q = CGAL::Exact_rational;
-  const Q px(p.x()), py(p.y()), pz(p.z());
-  const Q m[3][3] = {{Q(q.x()) - px, Q(q.y()) - py, Q(q.z()) - pz},
-                     {Q(r.x()) - px, Q(r.y()) - py, Q(r.z()) - pz},
-                     {Q(s.x()) - px, Q(s.y()) - py, Q(s.z()) - pz}};
-  Q rhs[3];
-  for (int i = 0; i < 3; ++i)
-    rhs[i] = Q(m[i][0] * m[i][0] + m[i][1] * m[i][1] + m[i][2] * m[i][2]) / 2;
-  // Returns Q, not gmpxx's expression template (which would dangle).
-  auto det = [](const Q a[3][3]) -> Q {
-    return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
-           a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
-           a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
-  };
-  const Q d = det(m);  // nonzero: the cell is not flat
-  Vec3 out{};
-  const Q base[3] = {px, py, pz};
-  for (int k = 0; k < 3; ++k) {
-    Q a[3][3];
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) a[i][j] = j == k ? rhs[i] : m[i][j];
-    const Q x = base[k] + det(a) / d;
-    out[k] = CGAL::to_double(x);
   }
   return out;
 }
@@ -225,7 +196,8 @@ const std::array<double, 3>& RestrictedDelaunay::circumcentre(Cell_handle c) {
         info.cc = rounded;
       } else {
         ++exact_circumcentres_;
-        info.cc = exact_circumcentre(*v[0], *v[1], *v[2], *v[3]);
+        const auto xq = circumcentre_in<CGAL::Exact_rational>(v);
+        for (int k = 0; k < 3; ++k) info.cc[k] = CGAL::to_double(xq[k]);
       }
     }
   }
