@@ -1,0 +1,202 @@
+#!/usr/bin/env python
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""What two of issue 14's speed levers could give at most, measured.
+
+``seeds``: the most that seeding near the final density can save. One run
+meshes the surface (f alone, as the suite's ``rdmesh_f_only``); then each run
+is seeded with a share of that run's own output vertices on top of its usual
+seeds (a share of 1 is a perfect seed: the refinement has nothing left to
+find), so the rounds that re-evaluate the same facets go away. The seeds
+cost nothing here, which no real seeding achieves::
+
+    python benchmarks/levers.py seeds torus 0.01068486690230627 --shares 0 0.5 0.8 1
+
+``resolution``: the seeding grid made finer (``mesh_surface``'s public
+``seed_resolution``, 64 by default), a real seeding near the final density
+whose cost is counted (``phase_seconds["seeding"]``)::
+
+    python benchmarks/levers.py resolution torus 0.01068486690230627 --resolutions 64 150
+
+``insertion``: how far CGAL's parallel insertion (TBB) and the bulk build are
+from the core's sequential insertion, on one run's own batches. The run's
+batches are written to a file and replayed by ``insertion_replay/`` (built
+here with CMake; it needs libtbb-dev for the parallel row)::
+
+    python benchmarks/levers.py insertion torus 0.01068486690230627 --threads 2
+
+Each prints one JSON object per run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+REPLAY_SOURCE = HERE / "insertion_replay"
+REPLAY_BUILD = HERE / "build" / "insertion_replay"
+
+
+def _surface(name: str):
+    import rdmesh
+    from rdmesh import surfaces
+
+    made = surfaces.SURFACES[name].make()
+    return rdmesh.ImplicitSurface(made.f, made.bounding_sphere)
+
+
+def _mesh(name: str, radius: float, resolution: int = 64):
+    import rdmesh
+
+    t0 = time.perf_counter()
+    mesh = rdmesh.mesh_surface(
+        _surface(name), radius_bound=radius, distance_bound=radius, seed_resolution=resolution
+    )
+    return mesh, time.perf_counter() - t0
+
+
+def _row(mesh, wall: float, **extra) -> dict:
+    s = mesh.stats
+    return {
+        **extra,
+        "vertices": len(mesh.vertices),
+        "wall_s": round(wall, 3),
+        "rounds": s["rounds"],
+        "facets_evaluated": s["facets_evaluated"],
+        "min_angle": round(float(mesh.min_angle), 3),
+        "closed_manifold": bool(mesh.is_closed_manifold()),
+        "phase_seconds": {k: round(v, 3) for k, v in s["phase_seconds"].items()},
+    }
+
+
+def seeds(name: str, radius: float, shares: list[float]) -> None:
+    """Runs seeded with a share of a first run's output vertices."""
+    from rdmesh.refine import methods
+    from rdmesh.sampling.grid import GridScan
+
+    first, wall = _mesh(name, radius)
+    print(json.dumps(_row(first, wall, surface=name, run="first", share=None)), flush=True)
+    scan = methods._scan
+    rng = np.random.default_rng(1)
+    try:
+        for share in shares:
+            extra = first.vertices[rng.random(len(first.vertices)) < share]
+
+            def seeded(*args, extra=extra, **kwargs):
+                found, discovery = scan(*args, **kwargs)
+                points = np.concatenate([found.seeds, extra])
+                return GridScan(points, found.crossings, found.spacing), discovery
+
+            methods._scan = seeded
+            mesh, wall = _mesh(name, radius)
+            row = _row(mesh, wall, surface=name, run="seeded", share=share, extra_seeds=len(extra))
+            print(json.dumps(row), flush=True)
+    finally:
+        methods._scan = scan
+
+
+def resolution(name: str, radius: float, resolutions: list[int]) -> None:
+    """Runs with finer seeding grids, the seeding's cost included."""
+    for res in resolutions:
+        mesh, wall = _mesh(name, radius, res)
+        row = _row(mesh, wall, surface=name, seed_resolution=res, seeds=mesh.stats["inserted"])
+        print(json.dumps(row), flush=True)
+
+
+def _build_replay() -> Path:
+    cmake = shutil.which("cmake")
+    if cmake is None:
+        sys.exit("levers.py: cmake not found on PATH")
+    for cmd in (
+        [cmake, "-S", str(REPLAY_SOURCE), "-B", str(REPLAY_BUILD), "-DCMAKE_BUILD_TYPE=Release"],
+        [cmake, "--build", str(REPLAY_BUILD), "--parallel", "2"],
+    ):
+        done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        if done.returncode:
+            sys.exit(f"levers.py: {' '.join(cmd[:2])} failed:\n{done.stdout[-2000:]}{done.stderr}")
+    return REPLAY_BUILD / "insertion_replay"
+
+
+def insertion(name: str, radius: float, threads: int, repeats: int) -> None:
+    """One run's batches replayed: sequential, parallel (TBB) and bulk."""
+    from rdmesh.refine.samples import Samples
+
+    exe = _build_replay()
+    batches: list[np.ndarray] = []
+    insert = Samples.insert
+
+    def recording(self, points, stage):
+        batches.append(np.array(points, np.float64))
+        return insert(self, points, stage)
+
+    Samples.insert = recording
+    try:
+        mesh, wall = _mesh(name, radius)
+    finally:
+        Samples.insert = insert
+    surface = _surface(name)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "batches.bin"
+        head = [len(batches), *np.asarray(surface.centre, float), float(surface.radius)]
+        parts = [np.array(head)]
+        for b in batches:
+            parts += [np.array([len(b)], float), b.ravel()]
+        np.concatenate(parts).astype("<f8").tofile(path)
+        cmd = [str(exe), str(path), "--threads", str(threads), "--repeats", str(repeats)]
+        done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    if done.returncode:
+        sys.exit(f"levers.py: insertion_replay failed: {done.stderr.strip()}")
+    replay = json.loads(done.stdout)
+    row = _row(mesh, wall, surface=name, batch_sizes=[len(b) for b in batches], replay=replay)
+    print(json.dumps(row), flush=True)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = p.add_subparsers(dest="lever", required=True)
+    s = sub.add_parser("seeds", help="seed with a share of a first run's vertices")
+    s.add_argument("surface")
+    s.add_argument("radius", type=float)
+    s.add_argument("--shares", type=float, nargs="+", default=[0.0, 0.5, 0.8, 1.0])
+    r = sub.add_parser("resolution", help="finer seeding grids (seed_resolution)")
+    r.add_argument("surface")
+    r.add_argument("radius", type=float)
+    r.add_argument("--resolutions", type=int, nargs="+", default=[64, 150])
+    i = sub.add_parser("insertion", help="replay one run's batches")
+    i.add_argument("surface")
+    i.add_argument("radius", type=float)
+    i.add_argument("--threads", type=int, default=2)
+    i.add_argument("--repeats", type=int, default=2)
+    args = p.parse_args(argv)
+
+    from rdmesh import surfaces
+
+    if args.surface not in surfaces.SURFACES:
+        p.error(f"unknown surface {args.surface!r}; use one of {', '.join(surfaces.SURFACES)}")
+    if not args.radius > 0:
+        p.error("radius must be positive")
+    if args.lever == "seeds":
+        if any(not 0 <= x <= 1 for x in args.shares):
+            p.error("shares lie in [0, 1]")
+        seeds(args.surface, args.radius, args.shares)
+    elif args.lever == "resolution":
+        if any(x < 2 for x in args.resolutions):
+            p.error("resolutions need at least 2")
+        resolution(args.surface, args.radius, args.resolutions)
+    else:
+        if args.threads < 1 or args.repeats < 1:
+            p.error("--threads and --repeats need at least 1")
+        insertion(args.surface, args.radius, args.threads, args.repeats)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
