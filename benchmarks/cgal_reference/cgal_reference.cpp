@@ -698,8 +698,9 @@ void facets_between_to_mesh(const C3t3& c3t3, int a, int b, Mesh& mesh) {
       if (ins.second) points.push_back(p);
       f[i - 1] = ins.first->second;
     }
-    // CGAL's rule for "normals point out of the subdomain a".
-    if ((ci == a) != (s % 2 == 1)) std::swap(f[0], f[1]);
+    // CGAL's rule for "normals point out of the subdomain a"
+    // (facets_in_complex_3_to_triangle_soup with normals_point_outside).
+    if ((ci == a) == (s % 2 == 1)) std::swap(f[0], f[1]);
     faces.push_back(f);
   }
   if (!PMP::is_polygon_soup_a_polygon_mesh(faces)) PMP::orient_polygon_soup(points, faces);
