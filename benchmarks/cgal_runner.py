@@ -24,6 +24,12 @@ Typical use::
 same without it.  ``surface_mesher_boundary`` is make_surface_mesh with
 ``Manifold_with_boundary_tag``, the only mesher of the ``CLIPPED_SURFACES``
 (surfaces that cross their bounding sphere, ``tests/clipped_surfaces.py``).
+``mesh_3_box`` is make_mesh_3 (as ``mesh_3_fast``) on a labeled domain: 0
+outside an axis-aligned box, 1 where f < 0 inside it, 2 where f >= 0; it
+outputs only the facets between subdomains 1 and 2 and is the only mesher of
+the ``BOX_SURFACES`` (surfaces clipped to a box, their boxes defined in the
+program as in ``tests/clipped_surfaces.py``); its JSON also has ``box`` and
+``complex_facets`` (every facet of the complex, the box faces' included).
 The floor of the benchmarks, CGAL's bulk
 ``Delaunay_triangulation_3(begin, end)`` of given points, runs with
 ``delaunay_command(exe, points_file)`` (points written by ``write_points``).
@@ -53,6 +59,7 @@ from typing import Any
 
 __all__ = [
     "BOUNDING_SPHERES",
+    "BOX_SURFACES",
     "CLIPPED_SURFACES",
     "DEFAULT_BUILD_DIR",
     "IMAGE_INITS",
@@ -77,7 +84,7 @@ SOURCE_DIR = _HERE / "cgal_reference"
 DEFAULT_BUILD_DIR = _HERE / "build" / "cgal_reference"
 _EXE_NAME = "cgal_reference"
 
-MESHERS = ("surface_mesher", "surface_mesher_boundary", "mesh_3", "mesh_3_fast")
+MESHERS = ("surface_mesher", "surface_mesher_boundary", "mesh_3", "mesh_3_fast", "mesh_3_box")
 SURFACES = (
     "sphere",
     "ellipsoid",
@@ -95,6 +102,10 @@ IMAGE_INITS = ("random", "components")
 #: Surfaces that leave their bounding sphere (``tests/clipped_surfaces.py``);
 #: only ``surface_mesher_boundary`` meshes them.
 CLIPPED_SURFACES = ("clipped_gyroid", "clipped_plane", "clipped_cylinder", "clipped_half_torus")
+
+#: Surfaces clipped to a box (``tests/clipped_surfaces.py``, the boxes in
+#: cgal_reference.cpp); only ``mesh_3_box`` meshes them.
+BOX_SURFACES = ("box_gyroid", "box_plane")
 
 #: Bounding sphere ((cx, cy, cz), r) the program hands to CGAL for each surface
 #: (the table in cgal_reference.cpp): the centre is inside the surface, as
@@ -257,12 +268,16 @@ def reference_command(
     """
     if mesher not in MESHERS:
         raise ValueError(f"unknown mesher {mesher!r}; expected one of {MESHERS}")
-    if surface not in SURFACES + CLIPPED_SURFACES:
-        raise ValueError(
-            f"unknown surface {surface!r}; expected one of {SURFACES + CLIPPED_SURFACES}"
-        )
+    known = SURFACES + CLIPPED_SURFACES + BOX_SURFACES
+    if surface not in known:
+        raise ValueError(f"unknown surface {surface!r}; expected one of {known}")
     if surface in CLIPPED_SURFACES and mesher != "surface_mesher_boundary":
         raise ValueError(f"{surface!r} leaves its sphere: only surface_mesher_boundary meshes it")
+    if (surface in BOX_SURFACES) != (mesher == "mesh_3_box"):
+        raise ValueError(
+            f"mesh_3_box meshes exactly the box surfaces {BOX_SURFACES}, not {surface!r} "
+            f"with {mesher!r}"
+        )
     cmd = [str(exe), "--mesher", mesher, "--surface", surface]
     return cmd + _criteria_args(angle, radius, distance, error_bound, seed, out)
 
@@ -410,7 +425,8 @@ def run_reference(
 ) -> dict[str, Any]:
     """Run the reference program once and return its JSON result as a dict.
 
-    ``mesher`` is "surface_mesher" or "mesh_3"; ``surface`` one of SURFACES;
+    ``mesher`` one of MESHERS; ``surface`` one of SURFACES (or of
+    CLIPPED_SURFACES, BOX_SURFACES with their mesher);
     ``angle`` (degrees), ``radius`` and ``distance`` are the CGAL facet
     criteria; ``error_bound`` the relative error of the implicit oracle
     (None: the program's default, 1e-6); ``seed`` CGAL's random seed

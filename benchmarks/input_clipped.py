@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Surfaces clipped by their bounding sphere as suite rows.
+"""Surfaces clipped by their bounding sphere, or by a box, as suite rows.
 
 Cases: the four of ``tests/clipped_surfaces.py`` (a gyroid in a sphere of
 radius 2, a plane through the unit ball, a cylinder longer than it, a torus
@@ -21,6 +21,23 @@ the ball (reference points on the surface, those inside the ball kept), the
 boundary loops against the known number, ``boundary_offset`` (how far the
 boundary vertices are from the sphere) and ``min_angle_interior`` (the
 smallest angle of the triangles with no boundary vertex).
+
+The input "clipped_box" (:data:`BOX_INPUT`) has the cases clipped to an
+axis-aligned box (``clip_box``, ``ClippedCase.box``): a gyroid in a cube and
+a tilted plane in a box.  Its meshers:
+
+- ``rdmesh``: as above (the box's surface, ``topology="manifold-with-boundary"``);
+- ``cgal_mesh_3_box``: what a CGAL user does without a clipping mesher:
+  Mesh_3 on a labeled domain (0 outside the box, 1 where f < 0 inside it,
+  2 where f >= 0 inside it), facet criteria only, no ``params::manifold()``,
+  the complex facets between subdomains 1 and 2 output (the reference
+  program's ``mesh_3_box`` mode);
+- ``marching_cubes``: f on a grid over the box exactly (the spacing shrunk on
+  each axis to a whole number of cells), so the boundary lies on its faces.
+
+Its quality: the same fields, with the Hausdorff distance to the surface
+inside the box and ``boundary_offset`` the largest distance of a boundary
+vertex from the box's surface.
 """
 
 from __future__ import annotations
@@ -41,7 +58,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from clipped_surfaces import CASES  # noqa: E402
 
-__all__ = ["INPUT", "ClippedInput", "clipped_marching_cubes"]
+__all__ = [
+    "BOX_INPUT",
+    "INPUT",
+    "ClippedBoxInput",
+    "ClippedInput",
+    "box_marching_cubes",
+    "box_offset",
+    "clipped_marching_cubes",
+]
 
 _MC_DENSITY = 1.5
 
@@ -61,25 +86,91 @@ def clipped_marching_cubes(surface, spacing: float) -> tuple[np.ndarray, np.ndar
     return v, f, n
 
 
+def box_marching_cubes(surface, spacing: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Marching cubes of ``surface`` on a grid spanning its ``clip_box`` exactly.
+
+    Each axis gets ``ceil(side / spacing)`` cells (so at most ``spacing``
+    apart) with grid planes on the box faces: the mesh's boundary lies on
+    them.  Returns ``(vertices, faces, grid points evaluated)``.
+    """
+    from skimage.measure import marching_cubes
+
+    box = getattr(surface, "clip_box", None)
+    if box is None:
+        raise ValueError(f"{surface.name!r} has no clip_box: use clipped_marching_cubes")
+    if not spacing > 0:
+        raise ValueError(f"spacing must be > 0, got {spacing!r}")
+    lo, hi = np.asarray(box, float)
+    cells = np.maximum(1, np.ceil((hi - lo) / spacing)).astype(int)
+    axes = [np.linspace(a, b, n + 1) for a, b, n in zip(lo, hi, cells, strict=True)]
+    vol = np.empty(tuple(cells + 1))
+    yy, zz = np.meshgrid(axes[1], axes[2], indexing="ij")
+    yz = np.column_stack([yy.ravel(), zz.ravel()])
+    for i, x in enumerate(axes[0]):  # one x plane at a time: bounded memory
+        vol[i] = np.asarray(surface.f(np.column_stack([np.full(len(yz), x), yz])), float).reshape(
+            yy.shape
+        )
+    h = (hi - lo) / cells
+    # f < 0 inside: the exterior is greater, which skimage calls "ascent".
+    v, f, _, _ = marching_cubes(vol, level=0.0, spacing=tuple(h), gradient_direction="ascent")
+    # Rounding of lo + i h may leave a face vertex 1 ulp outside: clip.
+    v = np.clip(v.astype(np.float64) + lo, lo, hi)
+    return v, f.astype(np.int64), int(vol.size)
+
+
+def box_offset(points: np.ndarray, lo, hi) -> np.ndarray:
+    """Each point's distance from the surface of the box ``[lo, hi]``."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    inside = np.minimum(points - lo, hi - points).min(axis=1)
+    outside = np.linalg.norm(np.maximum(np.maximum(lo - points, points - hi), 0.0), axis=1)
+    return np.where(inside >= 0, inside, outside)
+
+
+def _domain_marching_cubes(surface, spacing: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Marching cubes in the surface's domain: its clip box, else its ball."""
+    if getattr(surface, "clip_box", None) is not None:
+        return box_marching_cubes(surface, spacing)
+    return clipped_marching_cubes(surface, spacing)
+
+
 @cache
 def _area(case: str) -> float:
-    """The area of the case's surface inside its ball (a 96^3 marching cubes)."""
+    """The area of the case's surface inside its ball or box (a 96^3 marching cubes)."""
     from metrics import mesh_area
 
-    s = CASES[case].surface()
-    v, f, _ = clipped_marching_cubes(s, 2 * float(s.radius) / 95)
+    c = CASES[case]
+    s = c.surface()
+    if c.box is None:
+        v, f, _ = clipped_marching_cubes(s, 2 * float(s.radius) / 95)
+    else:
+        lo, hi = np.asarray(c.box, float)
+        v, f, _ = box_marching_cubes(s, float(np.max(hi - lo)) / 95)
     return mesh_area(v, f)
 
 
 @lru_cache(maxsize=2)
 def _reference(case: str, n: int) -> np.ndarray:
-    """Points on the case's surface inside its ball (``metrics.surface_reference``)."""
+    """Points on the case's surface inside its ball or box (``metrics.surface_reference``)."""
     from metrics import surface_reference
 
-    s = CASES[case].surface()
-    c, R = np.asarray(s.centre, float), float(s.radius)
-    ref = surface_reference(s, n, bbox=(c - R, c + R))
-    return ref[np.linalg.norm(ref - c, axis=1) <= R]
+    c = CASES[case]
+    s = c.surface()
+    if c.box is None:
+        centre, R = np.asarray(s.centre, float), float(s.radius)
+        ref = surface_reference(s, n, bbox=(centre - R, centre + R))
+        return ref[np.linalg.norm(ref - centre, axis=1) <= R]
+    lo, hi = np.asarray(c.box, float)
+    ref = surface_reference(s, n, bbox=(lo, hi))
+    return ref[np.all((ref >= lo) & (ref <= hi), axis=1)]
+
+
+def _boundary_offset(case: str, surface, points: np.ndarray) -> float:
+    """The largest distance of ``points`` from the case's sphere or box surface."""
+    box = CASES[case].box
+    if box is None:
+        r = np.linalg.norm(points - surface.centre, axis=1)
+        return float(np.abs(r - surface.radius).max())
+    return float(box_offset(points, *box).max())
 
 
 class CgalClipped(Cgal):
@@ -104,7 +195,7 @@ class ClippedInput(InputKind):
     }
 
     def cases(self) -> tuple[str, ...]:
-        return tuple(CASES)
+        return tuple(name for name, c in CASES.items() if c.box is None)
 
     def check(self, mesher: str) -> str | None:
         if mesher == "marching_cubes":
@@ -149,7 +240,7 @@ class ClippedInput(InputKind):
             import skimage.measure  # noqa: F401  (imported before the clock starts)
 
             t0 = time.perf_counter()
-            v, f, evaluations = clipped_marching_cubes(s, spec["spacing"])
+            v, f, evaluations = _domain_marching_cubes(s, spec["spacing"])
             seconds = time.perf_counter() - t0
             extra = {"grid_points": int(evaluations)}
         return mesh_run(
@@ -188,8 +279,7 @@ class ClippedInput(InputKind):
             on = np.zeros(n, bool)
             on[key // n] = on[key % n] = True
             if on.any():
-                r = np.linalg.norm(vertices[on] - s.centre, axis=1)
-                extra["boundary_offset"] = float(np.abs(r - s.radius).max())
+                extra["boundary_offset"] = _boundary_offset(case, s, vertices[on])
             inner = ~on[faces].any(axis=1)
             if inner.any():
                 extra["min_angle_interior"] = float(triangle_angles(vertices, faces[inner]).min())
@@ -201,4 +291,39 @@ class ClippedInput(InputKind):
         return quality_entry(vertices, faces, h, angle, expected, **extra)
 
 
+class CgalBox(Cgal):
+    """CGAL's Mesh_3 on a labeled box domain, the facets between subdomains 1 and 2."""
+
+    def reference_mode(self) -> str:
+        return "mesh_3_box"
+
+    # complex_facets: all facets Mesh_3 made, the box faces' included.
+    extra_keys = (*Cgal.extra_keys, "box", "complex_facets")
+
+    def reference_surface(self, case: dict) -> str:
+        return CASES[case["surface"]].cgal
+
+
+class ClippedBoxInput(ClippedInput):
+    """Surfaces clipped to a box: rdmesh, CGAL's labeled Mesh_3, marching cubes on the box."""
+
+    name = "clipped_box"
+    meshers = ("rdmesh", "cgal_mesh_3_box", "marching_cubes")
+    labels = {
+        "rdmesh": "rdmesh (manifold-with-boundary, clip_box)",
+        "cgal_mesh_3_box": "Mesh_3, labeled box domain, facets between subdomains 1 and 2",
+        "marching_cubes": "marching cubes on a grid spanning the box",
+    }
+
+    def cases(self) -> tuple[str, ...]:
+        return tuple(name for name, c in CASES.items() if c.box is not None)
+
+    def adapter(self, mesher: str, record: dict, log) -> tuple[Any, str | None]:
+        if mesher != "cgal_mesh_3_box":
+            return InputKind.adapter(self, mesher, record, log)
+        exe, why = build_cgal(record, log)
+        return CgalBox(mesher, exe), why
+
+
 INPUT = ClippedInput()
+BOX_INPUT = ClippedBoxInput()

@@ -3,7 +3,7 @@
 
 An *input* is a kind of thing users bring (issue 15): a volume
 (``input_volume.py``), a triangle mesh to remesh (``input_remesh.py``) or a
-surface clipped by its domain (``input_clipped.py``).  Each has named cases,
+surface clipped by its domain, a sphere or a box (``input_clipped.py``).  Each has named cases,
 the meshers that run on it and, for one case at one target vertex count:
 
 - ``params(case, size)`` (parent side): what every mesher gets, cheap;
@@ -45,8 +45,15 @@ __all__ = [
 
 #: The inputs, in the order the suite runs them; "implicit" is the built-in
 #: surfaces (``suite.py``'s original rows).
-INPUTS = ("implicit", "volume", "remesh", "clipped")
-_MODULES = {"volume": "input_volume", "remesh": "input_remesh", "clipped": "input_clipped"}
+INPUTS = ("implicit", "volume", "remesh", "clipped", "clipped_box")
+_MODULES = {
+    "volume": "input_volume",
+    "remesh": "input_remesh",
+    "clipped": "input_clipped",
+    "clipped_box": "input_clipped",
+}
+#: The module attribute that holds each input (default ``INPUT``).
+_ATTRIBUTES = {"clipped_box": "BOX_INPUT"}
 #: rdmesh gives about ``C * area / r^2`` vertices at radius bound r; C as
 #: calibrated on the built-in surfaces (0.67-0.74, ``calibration.py``).  The
 #: inputs use it to aim rdmesh at a target vertex count without a
@@ -104,14 +111,14 @@ class InputKind:
 
 
 def kind(name: str) -> InputKind:
-    """The input called ``name`` ("volume", "remesh" or "clipped").
+    """The input called ``name`` ("volume", "remesh", "clipped" or "clipped_box").
 
     Raises
     ------
     KeyError
         For "implicit" or an unknown name.
     """
-    return importlib.import_module(_MODULES[name]).INPUT
+    return getattr(importlib.import_module(_MODULES[name]), _ATTRIBUTES.get(name, "INPUT"))
 
 
 def quality_entry(

@@ -364,6 +364,14 @@ class Cgal(Mesher):
     """A CGAL mesher: the reference program (``cgal_reference/``), built once."""
 
     suffix = ".off"
+    #: The fields of the program's JSON line kept in the run's ``extra``.
+    extra_keys: tuple[str, ...] = (
+        "error_bound",
+        "bounding_sphere",
+        "closed",
+        "components",
+        "euler_characteristic",
+    )
 
     def __init__(self, name: str, exe: Path | None) -> None:
         super().__init__(name)
@@ -403,13 +411,7 @@ class Cgal(Mesher):
             "vertices": out["vertices"],
             "faces": out["faces"],
             "evaluations": out["evaluations"],
-            "extra": {
-                "error_bound": out.get("error_bound"),
-                "bounding_sphere": out.get("bounding_sphere"),
-                "closed": out.get("closed"),
-                "components": out.get("components"),
-                "euler_characteristic": out.get("euler_characteristic"),
-            },
+            "extra": {k: out.get(k) for k in self.extra_keys},
         }
 
 

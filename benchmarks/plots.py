@@ -47,6 +47,7 @@ COLORS = {
     "pymeshlab": ("tab:brown", "*"),
     "cgal_mesh_3_image": ("tab:pink", "p"),  # volumes: Mesh_3 on a gray image
     "cgal_mesh_3_image_components": ("darkgreen", "h"),
+    "cgal_mesh_3_box": ("tab:green", ">"),  # clipped to a box: labeled Mesh_3
 }
 
 _ANGLE_EDGES = np.linspace(0.0, 60.0, 121)

@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Markdown of the suite's other inputs: volumes, remeshing, clipped surfaces.
+"""Markdown of the suite's other inputs: volumes, remeshing, clipped surfaces (by
+their sphere or by a box).
 
 ``tables(results)`` gives one table per input present in the record (what
 ``suite.py`` prints after the built-in surfaces' tables); ``sections(results,
@@ -22,6 +23,7 @@ TITLES = {
     "volume": "Volumes: VolumeSurface against CGAL's gray-image Mesh_3 and marching cubes",
     "remesh": "Remeshing: MeshSurface against pymeshlab and the input",
     "clipped": "Clipped surfaces: manifold-with-boundary against CGAL and marching cubes",
+    "clipped_box": "Surfaces clipped to a box: against CGAL's labeled Mesh_3 and marching cubes",
 }
 
 _NOTES = {
@@ -58,6 +60,19 @@ _NOTES = {
         "smallest angle of the triangles with no boundary vertex. The gyroid's topology is "
         "not known in closed form (no expected value)."
     ),
+    "clipped_box": (
+        "Surfaces clipped to an axis-aligned box (`tests/clipped_surfaces.py`, `clip_box`). "
+        'rdmesh: `topology="manifold-with-boundary"`; CGAL has no clipping mesher for boxes: '
+        "Mesh_3 on a labeled domain (0 outside the box, 1 where f < 0 inside it, 2 where "
+        "f >= 0), facet criteria only, no `params::manifold()`, no protected curves, and only "
+        "the facets between subdomains 1 and 2 kept (reference program, `mesh_3_box`; it "
+        "meshes the box faces too, its time includes them); marching cubes: a grid spanning "
+        "the box exactly. All at radius bound = distance bound r = sqrt(0.7 area / size) "
+        "(marching cubes: spacing at most sqrt(1.5 area / size)). Hausdorff: to the surface "
+        "inside the box. Boundary offset: the largest distance of a boundary vertex from the "
+        "box's surface; interior angle: the smallest angle of the triangles with no boundary "
+        "vertex. The gyroid's topology is not known in closed form (no expected value)."
+    ),
 }
 
 
@@ -84,7 +99,7 @@ def _not_a_mesher(c: dict) -> bool:
 def quality_table(results: dict, name: str) -> str:
     """One row per case, size and mesher of input ``name`` (meshers that are
     not installed are left out and named below the table)."""
-    volume, clipped = name == "volume", name == "clipped"
+    volume, clipped = name == "volume", name in ("clipped", "clipped_box")
     header = ["case", "size", "mesher", "status", "vertices", "time (s)", "peak RSS (MB)",
               "min angle"]  # fmt: skip
     header += ["min angle, interior"] if clipped else []

@@ -325,3 +325,175 @@ def test_cgal_image_rows_in_the_suite(tmp_path):
         # Trilinear against the cubic interpolant: within a voxel.
         assert 0 < q["hausdorff"]["two_sided"] < q["voxel"]
         assert sum(q["min_angle_hist"]) == q["faces"]
+
+
+# ---------------------------------------------------------------------------
+# Surfaces clipped to a box (the clipped_box input)
+# ---------------------------------------------------------------------------
+
+BOX_CASES = ("gyroid in a cube", "plane in a box")
+
+
+def _box(case: str) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = np.asarray(input_clipped.CASES[case].box, float)
+    return lo, hi
+
+
+def _boundary_vertices(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    from rdmesh.topology.complex import complex_status
+
+    n = len(v)
+    st = complex_status(f, n)
+    key = st.edge_key[st.edge_count == 1]
+    return np.unique(np.concatenate([key // n, key % n]))
+
+
+def test_box_cases_are_their_own_input():
+    import inputs
+
+    box = inputs.kind("clipped_box")
+    assert box.cases() == BOX_CASES
+    assert not set(BOX_CASES) & set(inputs.kind("clipped").cases())
+    assert box.meshers == ("rdmesh", "cgal_mesh_3_box", "marching_cubes")
+    a = suite.parse_args(["--inputs", "clipped_box", "--cases", "plane in a box",
+                          "--meshers", "cgal_mesh_3_box"])  # fmt: skip
+    assert a.inputs == ["clipped_box"] and a.input_meshers == ["cgal_mesh_3_box"]
+    # The surface has the case's box; its sphere holds the box.
+    s = input_clipped.CASES["plane in a box"].surface()
+    lo, hi = _box("plane in a box")
+    np.testing.assert_array_equal(s.clip_box, [lo, hi])
+    assert np.linalg.norm(hi - s.centre) < s.radius
+
+
+def test_box_offset_is_the_distance_to_the_box_surface():
+    lo, hi = np.zeros(3), np.array([1.0, 2.0, 3.0])
+    p = np.array([[0.5, 1.0, 1.0], [0.2, 0.3, 0.4], [1.0, 1.0, 1.0], [2.0, 1.0, 1.0],
+                  [2.0, 3.0, 1.0], [-1.0, -1.0, -1.0]])  # fmt: skip
+    np.testing.assert_allclose(
+        input_clipped.box_offset(p, lo, hi), [0.5, 0.2, 0.0, 1.0, np.sqrt(2), np.sqrt(3)]
+    )
+
+
+@pytest.mark.parametrize("case", BOX_CASES)
+def test_box_marching_cubes_spans_the_box(case):
+    s = input_clipped.CASES[case].surface()
+    lo, hi = _box(case)
+    v, f, n = input_clipped.box_marching_cubes(s, 0.1 * float(np.min(hi - lo)))
+    assert n > 0 and len(f) > 100
+    # Every vertex in the box, the boundary on its faces (the grid spans it).
+    assert np.all(v >= lo) and np.all(v <= hi)
+    bv = _boundary_vertices(v, f)
+    assert len(bv) > 0
+    assert input_clipped.box_offset(v[bv], lo, hi).max() <= 1e-12 * float(np.max(hi - lo))
+    if case == "plane in a box":
+        t = metrics.topology_stats(v, f, 1, 1, expected_loops=1)
+        assert t["topology_ok"] is True
+
+
+def test_box_marching_cubes_needs_a_box():
+    s = input_clipped.CASES["plane disk"].surface()
+    with pytest.raises(ValueError, match="no clip_box"):
+        input_clipped.box_marching_cubes(s, 0.1)
+
+
+def test_mesh_3_box_takes_only_the_box_surfaces():
+    import cgal_runner
+
+    cmd = cgal_runner.reference_command("exe", "mesh_3_box", "box_plane", 30, 0.1, 0.1)
+    assert cmd[:5] == ["exe", "--mesher", "mesh_3_box", "--surface", "box_plane"]
+    with pytest.raises(ValueError, match="mesh_3_box"):
+        cgal_runner.reference_command("exe", "mesh_3_box", "sphere", 30, 0.1, 0.1)
+    with pytest.raises(ValueError, match="mesh_3_box"):
+        cgal_runner.reference_command("exe", "mesh_3_fast", "box_gyroid", 30, 0.1, 0.1)
+    # The case table and the program name the same surfaces.
+    names = {input_clipped.CASES[c].cgal for c in BOX_CASES}
+    assert names == set(cgal_runner.BOX_SURFACES)
+
+
+@pytest.fixture(scope="module")
+def box_rows(tmp_path_factory) -> dict:
+    out = tmp_path_factory.mktemp("bench-box")
+    cmd = [sys.executable, str(BENCH / "suite.py"), "--out", str(out),
+           "--inputs", "clipped_box", "--cases", "plane in a box", "--sizes", str(SIZE),
+           "--repeats", "1", "--reference-samples", "3000", "--timeout", "300",
+           "--meshers", "rdmesh", "marching_cubes", "cgal_mesh_3_box"]  # fmt: skip
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900, check=False)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    (path,) = out.glob("*.json")
+    res = json.loads(path.read_text())
+    res["_md"] = path.with_suffix(".md").read_text()
+    return res
+
+
+@pytest.mark.slow
+def test_box_plane_rows_are_a_disk_with_its_boundary_on_the_box(box_rows):
+    assert box_rows["finished"] is True
+    rd = _case(box_rows, "plane in a box", "rdmesh")
+    assert rd["status"] == "ok", rd
+    q = rd["quality"]
+    t = q["topology"]
+    assert (t["components"], t["euler"], t["boundary_loops"]) == (1, 1, 1)
+    assert t["manifold_with_boundary"] is True and t["topology_ok"] is True
+    # rdmesh puts its boundary vertices on the box faces (their coordinate set
+    # to the face's); interior triangles keep the angle bound.
+    assert q["boundary_offset"] <= 1e-12
+    assert q["min_angle_interior"] >= 30.0 - 1e-9
+    mc = _case(box_rows, "plane in a box", "marching_cubes")
+    assert mc["status"] == "ok", mc
+    assert mc["quality"]["topology"]["boundary_loops"] == 1
+    assert mc["quality"]["boundary_offset"] <= 1e-12  # the grid spans the box
+    assert "## Surfaces clipped to a box" in box_rows["_md"]
+    assert "| plane in a box | 500 | rdmesh | ok |" in box_rows["_md"]
+
+
+@pytest.mark.slow  # builds the CGAL reference on a fresh machine (a minute or two)
+def test_box_plane_cgal_row(box_rows):
+    c = _case(box_rows, "plane in a box", "cgal_mesh_3_box")
+    if c["status"] == "unavailable":
+        pytest.skip(f"CGAL reference not available: {c['note']}")
+    assert c["status"] == "ok", c
+    q = c["quality"]
+    assert q["vertices"] == c["summary"]["vertices"] > 100
+    assert q["topology"]["boundary_loops"] >= 1
+    # Mesh_3 meshed the box faces too; only the facets between 1 and 2 are kept.
+    (run,) = c["runs"]
+    assert run["extra"]["complex_facets"] > q["faces"]
+    assert run["extra"]["box"] == [*_box("plane in a box")[0], *_box("plane in a box")[1]]
+
+
+def _mesh_3_box(exe, tmp_path, case: str, r: float):
+    import cgal_runner
+    import meshfile
+
+    off = tmp_path / f"{input_clipped.CASES[case].cgal}.off"
+    out = cgal_runner.run_reference(
+        exe, "mesh_3_box", input_clipped.CASES[case].cgal, 30, r, r, out=off, timeout=600
+    )
+    v, f = metrics.compact(*meshfile.load_mesh(off))
+    return out, v, f
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("case", "r"), [("plane in a box", 0.05), ("gyroid in a cube", 0.2)])
+def test_cgal_mesh_3_box_keeps_only_the_clipped_surface(cgal_exe, tmp_path, case, r):
+    out, v, f = _mesh_3_box(cgal_exe, tmp_path, case, r)
+    lo, hi = _box(case)
+    assert out["box"] == [*lo, *hi]
+    assert len(f) == out["faces"] > 100 and out["complex_facets"] > len(f)
+    # Every vertex in the box, up to the oracle's bisection error (1e-6 of
+    # the domain's half diagonal).
+    tol = 1e-5 * float(np.linalg.norm(hi - lo))
+    assert np.all(v >= lo - tol) and np.all(v <= hi + tol)
+    # A boundary, and no facet of a box face: no triangle with its three
+    # vertices on one face.
+    assert len(_boundary_vertices(v, f)) > 0
+    on = np.concatenate([np.abs(v - lo), np.abs(hi - v)], axis=1) <= tol
+    assert not on[f].all(axis=1).any()
+    # The facets are oriented out of subdomain 1 (f < 0): along grad f.
+    s = input_clipped.CASES[case].surface()
+    a, b, c = (v[f[:, i]] for i in range(3))
+    normal = np.cross(b - a, c - a)
+    g = s.grad((a + b + c) / 3)
+    assert np.einsum("ij,ij->i", normal, g).sum() > 0.9 * np.linalg.norm(normal, axis=1).dot(
+        np.linalg.norm(g, axis=1)
+    )

@@ -17,6 +17,19 @@
 // timed.  "evaluations" counts the calls of the implicit function made during
 // that call.
 //
+// "mesh_3_box" meshes the "box_*" surfaces, which are clipped to an
+// axis-aligned box (tests/clipped_surfaces.py), as a CGAL user would without a
+// clipping mesher: Mesh_3 on a labeled domain whose labeling function is 0
+// outside the box, 1 where f < 0 inside it and 2 where f >= 0 inside it,
+// facet criteria only, no params::manifold() (as "mesh_3_fast").  Mesh_3
+// then meshes the box faces too (surface patches (0, 1) and (0, 2)); only the
+// complex facets between subdomains 1 and 2 are output.  No 1D features are
+// protected, so the boundary of that patch is where Mesh_3's restricted
+// Delaunay facets happen to meet the box faces.  "evaluations" counts the
+// calls of f (labels of points outside the box need no f); the JSON line also
+// has "box" and "complex_facets" (all facets of the complex, the box faces'
+// included).
+//
 // "mesh_3_image" meshes the isosurface of a gray-level volume instead of a
 // named surface: Mesh_3's gray-image domain
 // (Labeled_mesh_domain_3::create_gray_image_mesh_domain, trilinear
@@ -36,7 +49,7 @@
 // both calls are timed.
 //
 // Usage:
-//   cgal_reference --mesher surface_mesher|surface_mesher_boundary|mesh_3|mesh_3_fast
+//   cgal_reference --mesher surface_mesher|surface_mesher_boundary|mesh_3|mesh_3_fast|mesh_3_box
 //                  --surface NAME
 //                  --angle A --radius R --distance D
 //                  [--error-bound E] [--seed S] [--out mesh.off]
@@ -168,6 +181,14 @@ double f_clipped_half_torus(double x, double y, double z) {
   return q * q + z * z - 0.04;
 }
 
+// Surfaces clipped to a box (tests/clipped_surfaces.py): only "mesh_3_box"
+// meshes them.  The gyroid of period 2 pi, and a tilted plane.
+double f_box_gyroid(double x, double y, double z) {
+  return std::sin(x) * std::cos(y) + std::sin(y) * std::cos(z) + std::sin(z) * std::cos(x);
+}
+
+double f_box_plane(double x, double y, double z) { return z - 0.2 - 0.5 * x - 0.2 * y; }
+
 // Global evaluation counter.  The meshers run sequentially (no TBB, no
 // CGAL_CONCURRENT_MESH_3), so a plain integer is enough.
 std::uint64_t g_evaluations = 0;
@@ -220,6 +241,11 @@ struct Surface_entry {
   // segment finds no sign change) and the sphere, so f(centre) < 0 is not
   // needed.
   bool clipped = false;
+  // The surface is clipped to the axis-aligned box (x0, y0, z0, x1, y1, z1):
+  // meshed by "mesh_3_box" only; the sphere above is the box's circumscribed
+  // sphere, reported as "bounding_sphere" and not used for meshing.
+  bool boxed = false;
+  std::array<double, 6> box{};
 };
 
 const std::map<std::string, Surface_entry>& surfaces() {
@@ -239,6 +265,15 @@ const std::map<std::string, Surface_entry>& surfaces() {
        {f_clipped_cylinder, counted<f_clipped_cylinder>, {0.0, 0.0, 0.0}, 1.0, true}},
       {"clipped_half_torus",
        {f_clipped_half_torus, counted<f_clipped_half_torus>, {0.0, 0.0, 0.0}, 1.0, true}},
+      // Boxes as in tests/clipped_surfaces.py (keep them equal): the gyroid's
+      // cube of side 6.6 is off its symmetry centre, so the surface crosses
+      // the box edges transversally, away from the corners.
+      {"box_gyroid",
+       {f_box_gyroid, counted<f_box_gyroid>, {0.3, -0.2, 0.1}, 5.715767664977294, false, true,
+        {-3.0, -3.5, -3.2, 3.6, 3.1, 3.4}}},
+      {"box_plane",
+       {f_box_plane, counted<f_box_plane>, {0.05, -0.05, 0.05}, 1.2031209415515964, false, true,
+        {-0.8, -0.7, -0.5, 0.9, 0.6, 0.6}}},
   };
   return table;
 }
@@ -287,7 +322,8 @@ struct Options {
 };
 
 const char* const kUsage =
-    "usage: cgal_reference --mesher surface_mesher|surface_mesher_boundary|mesh_3|mesh_3_fast\n"
+    "usage: cgal_reference --mesher surface_mesher|surface_mesher_boundary|mesh_3|mesh_3_fast|\n"
+    "                               mesh_3_box\n"
     "                      --surface NAME\n"
     "                      --angle A --radius R --distance D\n"
     "                      [--error-bound E] [--seed S] [--out mesh.off]\n"
@@ -299,6 +335,9 @@ const char* const kUsage =
     "  surface_mesher: make_surface_mesh with Manifold_tag;\n"
     "  surface_mesher_boundary: with Manifold_with_boundary_tag\n"
     "  mesh_3: make_mesh_3 with params::manifold(); mesh_3_fast: without it\n"
+    "  mesh_3_box: make_mesh_3 without it on a labeled domain (0 outside the\n"
+    "              surface's box, 1 where f < 0 in it, 2 where f >= 0), the facets\n"
+    "              between 1 and 2 output (box_* surfaces only)\n"
     "  mesh_3_image: make_mesh_3 with params::manifold() on the gray-image domain\n"
     "                of FILE (raw little-endian float32, x fastest, NX*NY*NZ\n"
     "                samples); values > V inside, outside the box outside;\n"
@@ -308,7 +347,8 @@ const char* const kUsage =
     "            (x y z per line)\n"
     "  NAME: sphere ellipsoid torus thin_torus double_torus tanglecube\n"
     "        two_spheres blob_line; clipped by their sphere (surface_mesher_boundary\n"
-    "        only): clipped_gyroid clipped_plane clipped_cylinder clipped_half_torus\n"
+    "        only): clipped_gyroid clipped_plane clipped_cylinder clipped_half_torus;\n"
+    "        clipped by a box (mesh_3_box only): box_gyroid box_plane\n"
     "  A: minimum facet angle bound in degrees, 0 < A < 90 (CGAL guarantees\n"
     "     termination only for A <= 30)\n"
     "  R: facet circumradius bound (Surface_mesher radius, Mesh_3 facet_size) > 0\n"
@@ -422,11 +462,11 @@ Options parse_args(int argc, char** argv) {
     }
     if (arg == "--mesher") {
       if (value != "surface_mesher" && value != "surface_mesher_boundary" &&
-          value != "mesh_3" && value != "mesh_3_fast" && value != "mesh_3_image" &&
-          value != "delaunay")
+          value != "mesh_3" && value != "mesh_3_fast" && value != "mesh_3_box" &&
+          value != "mesh_3_image" && value != "delaunay")
         throw Usage_error{"unknown mesher '" + value +
                           "' (surface_mesher, surface_mesher_boundary, mesh_3, mesh_3_fast,"
-                          " mesh_3_image or delaunay)"};
+                          " mesh_3_box, mesh_3_image or delaunay)"};
       o.mesher = value;
     } else if (arg == "--surface") {
       if (surfaces().count(value) == 0) throw Usage_error{"unknown surface '" + value + "'"};
@@ -494,9 +534,15 @@ Options parse_args(int argc, char** argv) {
     if (o.init.empty()) o.init = "random";
     return o;
   }
-  if (surfaces().at(o.surface).clipped && o.mesher != "surface_mesher_boundary")
+  const Surface_entry& s = surfaces().at(o.surface);
+  if (s.clipped && o.mesher != "surface_mesher_boundary")
     throw Usage_error{"surface '" + o.surface +
                       "' leaves its bounding sphere: only --mesher surface_mesher_boundary"};
+  if (s.boxed != (o.mesher == "mesh_3_box"))
+    throw Usage_error{s.boxed ? "surface '" + o.surface +
+                                    "' is clipped to a box: only --mesher mesh_3_box"
+                              : "--mesher mesh_3_box meshes the box_* surfaces only, not '" +
+                                    o.surface + "'"};
   return o;
 }
 
@@ -566,11 +612,12 @@ double run_surface_mesher(const Options& o, const Surface_entry& s, Mesh& mesh, 
 // Mesh_3's facet criteria from the options (the Mesh_3 modes' only criteria:
 // no cell criterion is given, so only the surface is refined).
 template <typename Criteria>
-Criteria facet_criteria(const Options& o) {
+Criteria facet_criteria(const Options& o,
+                        CGAL::Mesh_facet_topology topology =
+                            CGAL::FACET_VERTICES_ON_SAME_SURFACE_PATCH) {
   namespace params = CGAL::parameters;
   return Criteria(params::facet_angle = o.angle, params::facet_size = o.radius,
-                  params::facet_distance = o.distance,
-                  params::facet_topology = CGAL::FACET_VERTICES_ON_SAME_SURFACE_PATCH);
+                  params::facet_distance = o.distance, params::facet_topology = topology);
 }
 
 double run_mesh_3(const Options& o, const Surface_entry& s, Mesh& mesh, CGAL::Random& rng,
@@ -606,6 +653,95 @@ double run_mesh_3(const Options& o, const Surface_entry& s, Mesh& mesh, CGAL::Ra
   const auto t1 = std::chrono::steady_clock::now();
 
   CGAL::facets_in_complex_3_to_triangle_mesh(c3t3, mesh);
+  return std::chrono::duration<double>(t1 - t0).count();
+}
+
+// ---------------------------------------------------------------------------
+// Mesh_3 on a surface clipped to a box
+// ---------------------------------------------------------------------------
+
+// The labeled domain's labels: 0 outside the box, 1 where f < 0 inside it, 2
+// where f >= 0 inside it.  Only the calls of f are counted.
+struct Box_labels {
+  Raw_function f;
+  std::array<double, 6> box;
+  int operator()(const Point_3& p) const {
+    const double x = p.x(), y = p.y(), z = p.z();
+    if (x < box[0] || y < box[1] || z < box[2] || x > box[3] || y > box[4] || z > box[5])
+      return 0;
+    ++g_evaluations;
+    return f(x, y, z) < 0.0 ? 1 : 2;
+  }
+};
+
+// The complex facets between subdomains `a` and `b` as a triangle mesh, each
+// oriented with its normal out of subdomain `a` (into f >= 0 here, as CGAL's
+// facets_in_complex_3_to_triangle_soup orients the facets of one subdomain).
+// The soup is made a polygon mesh as facets_in_complex_3_to_triangle_mesh
+// does (orient_polygon_soup duplicates non-manifold vertices, if any).
+template <typename C3t3>
+void facets_between_to_mesh(const C3t3& c3t3, int a, int b, Mesh& mesh) {
+  namespace PMP = CGAL::Polygon_mesh_processing;
+  std::vector<Point_3> points;
+  std::vector<std::array<std::size_t, 3>> faces;
+  std::map<Point_3, std::size_t> index;
+  const auto& tr = c3t3.triangulation();
+  for (auto fit = c3t3.facets_in_complex_begin(); fit != c3t3.facets_in_complex_end(); ++fit) {
+    const auto c = fit->first;
+    const int s = fit->second;
+    const int ci = c3t3.subdomain_index(c), oi = c3t3.subdomain_index(c->neighbor(s));
+    if (!((ci == a && oi == b) || (ci == b && oi == a))) continue;
+    std::array<std::size_t, 3> f{};
+    for (int i = 1; i < 4; ++i) {
+      const Point_3 p = tr.point(c, (s + i) & 3).point();
+      const auto ins = index.emplace(p, points.size());
+      if (ins.second) points.push_back(p);
+      f[i - 1] = ins.first->second;
+    }
+    // CGAL's rule for "normals point out of the subdomain a"
+    // (facets_in_complex_3_to_triangle_soup with normals_point_outside).
+    if ((ci == a) == (s % 2 == 1)) std::swap(f[0], f[1]);
+    faces.push_back(f);
+  }
+  if (!PMP::is_polygon_soup_a_polygon_mesh(faces)) PMP::orient_polygon_soup(points, faces);
+  PMP::polygon_soup_to_polygon_mesh(points, faces, mesh);
+}
+
+double run_mesh_3_box(const Options& o, const Surface_entry& s, Mesh& mesh, CGAL::Random& rng,
+                      std::size_t& complex_facets) {
+  using Mesh_domain = CGAL::Labeled_mesh_domain_3<K>;
+  using Tr = CGAL::Mesh_triangulation_3<Mesh_domain, CGAL::Default, CGAL::Sequential_tag>::type;
+  using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr>;
+  using Mesh_criteria = CGAL::Mesh_criteria_3<Tr>;
+  namespace params = CGAL::parameters;
+
+  const auto& b = s.box;
+  // The domain's bounding box is the clip box grown by 5% of its diagonal
+  // on every side, so that the box faces (label changes 0 -> 1 or 2) lie
+  // strictly inside it and are found like any other surface patch.  The
+  // error bound is relative to half that box's diagonal.
+  const double margin =
+      0.05 * std::sqrt(sq(b[3] - b[0]) + sq(b[4] - b[1]) + sq(b[5] - b[2]));
+  const K::Iso_cuboid_3 bbox(b[0] - margin, b[1] - margin, b[2] - margin, b[3] + margin,
+                             b[4] + margin, b[5] + margin);
+  Mesh_domain domain(Box_labels{s.raw, b}, bbox, o.error_bound, CGAL::Null_subdomain_index(),
+                     &rng);
+
+  // Facet criteria only, as "mesh_3_fast" (no params::manifold()), on every
+  // patch, the box faces' too.  FACET_VERTICES_ON_SURFACE, Mesh_3's default:
+  // with no protected 1D features the facets along the curve where the
+  // surface meets the box have vertices on two patches, which
+  // FACET_VERTICES_ON_SAME_SURFACE_PATCH (the other modes') would keep refining
+  // there (not tried).
+  const auto criteria = facet_criteria<Mesh_criteria>(o, CGAL::FACET_VERTICES_ON_SURFACE);
+
+  g_evaluations = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria, params::no_perturb(), params::no_exude());
+  const auto t1 = std::chrono::steady_clock::now();
+
+  complex_facets = c3t3.number_of_facets_in_complex();
+  facets_between_to_mesh(c3t3, 1, 2, mesh);
   return std::chrono::duration<double>(t1 - t0).count();
 }
 
@@ -789,8 +925,15 @@ std::string json_triple(const std::array<T, 3>& a) {
 
 // The JSON fields (each after ", ") that describe a named surface's run ...
 std::string surface_fields(const Surface_entry& s) {
-  return ", \"bounding_sphere\": [" + json_double(s.centre[0]) + ", " + json_double(s.centre[1]) +
-         ", " + json_double(s.centre[2]) + ", " + json_double(s.radius) + "]";
+  std::string out = ", \"bounding_sphere\": [" + json_double(s.centre[0]) + ", " +
+                    json_double(s.centre[1]) + ", " + json_double(s.centre[2]) + ", " +
+                    json_double(s.radius) + "]";
+  if (s.boxed) {
+    out += ", \"box\": [";
+    for (int i = 0; i < 6; ++i) out += (i ? ", " : "") + json_double(s.box[i]);
+    out += "]";
+  }
+  return out;
 }
 
 // ... and an image's.
@@ -864,16 +1007,22 @@ int main(int argc, char** argv) {
       input = image_fields(o);
     } else {
       const Surface_entry& s = surfaces().at(o.surface);
-      const std::string bad = s.clipped ? std::string() : check_bounding_sphere(s);
+      const std::string bad = s.clipped || s.boxed ? std::string() : check_bounding_sphere(s);
       if (!bad.empty()) {
         std::cerr << "cgal_reference: bounding sphere of '" << o.surface << "' unusable: " << bad
                   << "\n";
         return 1;
       }
       const bool sm = o.mesher == "surface_mesher" || o.mesher == "surface_mesher_boundary";
-      seconds = sm ? run_surface_mesher(o, s, mesh, o.mesher == "surface_mesher_boundary")
-                   : run_mesh_3(o, s, mesh, mesh_3_rng, o.mesher == "mesh_3");
       input = surface_fields(s);
+      if (o.mesher == "mesh_3_box") {
+        std::size_t complex_facets = 0;
+        seconds = run_mesh_3_box(o, s, mesh, mesh_3_rng, complex_facets);
+        input += ", \"complex_facets\": " + std::to_string(complex_facets);
+      } else {
+        seconds = sm ? run_surface_mesher(o, s, mesh, o.mesher == "surface_mesher_boundary")
+                     : run_mesh_3(o, s, mesh, mesh_3_rng, o.mesher == "mesh_3");
+      }
     }
     const std::uint64_t evaluations = g_evaluations;
 
