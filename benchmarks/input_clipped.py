@@ -291,7 +291,7 @@ class ClippedInput(InputKind):
         return quality_entry(vertices, faces, h, angle, expected, **extra)
 
 
-class CgalBox(Cgal):
+class CgalBox(CgalClipped):
     """CGAL's Mesh_3 on a labeled box domain, the facets between subdomains 1 and 2."""
 
     def reference_mode(self) -> str:
@@ -299,9 +299,6 @@ class CgalBox(Cgal):
 
     # complex_facets: all facets Mesh_3 made, the box faces' included.
     extra_keys = (*Cgal.extra_keys, "box", "complex_facets")
-
-    def reference_surface(self, case: dict) -> str:
-        return CASES[case["surface"]].cgal
 
 
 class ClippedBoxInput(ClippedInput):
