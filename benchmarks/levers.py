@@ -24,6 +24,17 @@ here with CMake; it needs libtbb-dev for the parallel row)::
 
     python benchmarks/levers.py insertion torus 0.01068486690230627 --threads 2
 
+``band``: seeding near the final density from a fine grid in a narrow band
+around the surface, as a real seeding would do it. The grid cells that
+change sign are halved, level by level, down to ``--cell`` times the radius
+bound (f is evaluated only at the new nodes of those cells); the crossings
+on the finest cells' edges are thinned to points at least ``--spacing``
+times the radius bound apart, from each other and from the usual seeds, and
+added to them. The band's cost
+is printed (``band_s``) and is not part of ``wall_s``'s comparison::
+
+    python benchmarks/levers.py band torus 0.01068486690230627 --spacings 1 2 2.6
+
 Each prints one JSON object per run.
 """
 
@@ -111,6 +122,126 @@ def resolution(name: str, radius: float, resolutions: list[int]) -> None:
         print(json.dumps(row), flush=True)
 
 
+def band_crossings(surface, rng: np.random.Generator, resolution: int, cell: float):
+    """Crossings of the surface with the edges of a fine grid in the band of
+    grid cells that change sign: ``(points, evaluations, finest spacing)``.
+
+    Level 0 is a rotated, shifted grid of ``resolution`` cells across the
+    ball, as the seeding scan's; each level halves the cells whose corners
+    change sign, until the spacing is at most ``cell``.
+    """
+    from rdmesh._tol import SHOT_ATOL
+    from rdmesh.sampling.roots import SegmentSamples, line_crossings
+    from scipy.spatial.transform import Rotation
+
+    c0, R = surface.centre, surface.radius
+    h = 2.0 * R / resolution
+    rot = Rotation.random(random_state=rng).as_matrix()
+    base = -(R + h) + rng.uniform(0.0, h, size=3)
+    n = resolution + 3
+
+    def at(ijk: np.ndarray, step: float) -> np.ndarray:
+        return c0 + (base + ijk * step) @ rot.T
+
+    grid = np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), -1).reshape(-1, 3)
+    keys = np.ravel_multi_index(tuple(grid.T), (n,) * 3)
+    values = surface(at(grid, h))
+    evaluations = len(keys)
+    inside = values.reshape(n, n, n) < 0
+    corner = [inside[i : n - 1 + i, j : n - 1 + j, k : n - 1 + k]
+              for i in (0, 1) for j in (0, 1) for k in (0, 1)]  # fmt: skip
+    cells = np.argwhere(np.any(corner, 0) & ~np.all(corner, 0))
+    step, size = h, n
+    sub = np.stack(np.meshgrid(*(np.arange(3),) * 3, indexing="ij"), -1).reshape(-1, 3)
+    child = np.stack(np.meshgrid(*(np.arange(2),) * 3, indexing="ij"), -1).reshape(-1, 3)
+    while step > cell and len(cells):
+        step, old, size = step / 2, size, 2 * (size - 1) + 1
+        # The known nodes, renumbered on the finer grid (sorted for lookups).
+        keys = np.ravel_multi_index(tuple(2 * np.array(np.unravel_index(keys, (old,) * 3))),
+                                    (size,) * 3)  # fmt: skip
+        order = np.argsort(keys)
+        keys, values = keys[order], values[order]
+        nodes = (2 * cells)[:, None, :] + sub[None]  # (m, 27, 3)
+        nk = np.ravel_multi_index(tuple(nodes.reshape(-1, 3).T), (size,) * 3)
+        uk = np.unique(nk)
+        pos = np.minimum(np.searchsorted(keys, uk), len(keys) - 1)
+        new = uk[keys[pos] != uk]
+        fresh = surface(at(np.stack(np.unravel_index(new, (size,) * 3), -1), step))
+        evaluations += len(new)
+        keys, values = np.concatenate([keys, new]), np.concatenate([values, fresh])
+        order = np.argsort(keys)
+        keys, values = keys[order], values[order]
+        signs = (values[np.searchsorted(keys, nk)] < 0).reshape(-1, 3, 3, 3)
+        kids = []
+        for a, b, c in child:
+            eight = signs[:, a : a + 2, b : b + 2, c : c + 2].reshape(len(signs), 8)
+            mixed = eight.any(1) & ~eight.all(1)
+            kids.append(2 * cells[mixed] + (a, b, c))
+        cells = np.concatenate(kids)
+    # Edges of the finest mixed cells, as (start node key, axis), once each.
+    starts, axes = [], []
+    for ax in range(3):
+        u, v = [x for x in range(3) if x != ax]
+        for du in (0, 1):
+            for dv in (0, 1):
+                o = np.zeros(3, np.int64)
+                o[u], o[v] = du, dv
+                starts.append(np.ravel_multi_index(tuple((cells + o).T), (size,) * 3))
+                axes.append(np.full(len(cells), ax))
+    edge = np.unique(np.concatenate(starts) * 3 + np.concatenate(axes))
+    start, axis = edge // 3, edge % 3
+    a = np.stack(np.unravel_index(start, (size,) * 3), -1)
+    b = a.copy()
+    b[np.arange(len(b)), axis] += 1
+    end = np.ravel_multi_index(tuple(b.T), (size,) * 3)
+    change = (values[np.searchsorted(keys, start)] < 0) != (values[np.searchsorted(keys, end)] < 0)
+    origin = at(a[change], step)
+    direction = np.ascontiguousarray(rot[:, axis[change]].T)
+    samples = SegmentSamples.uniform(np.full(len(origin), step), 1)
+    cr = line_crossings(surface, origin, direction, samples, xatol=SHOT_ATOL * R)
+    return cr.point, evaluations + int(change.sum()), step
+
+
+def band(name: str, radius: float, spacings: list[float], cell: float) -> None:
+    """Runs seeded from a fine band grid's crossings, thinned to each spacing."""
+    from rdmesh import core
+    from rdmesh.refine import methods
+    from rdmesh.sampling.grid import GridScan
+    from scipy.spatial import cKDTree
+
+    first, wall = _mesh(name, radius)
+    print(json.dumps(_row(first, wall, surface=name, run="first", spacing=None)), flush=True)
+    scan = methods._scan
+    try:
+        for spacing in spacings:
+            info: dict = {}
+
+            def seeded(surface, rng, resolution, *args, spacing=spacing, info=info, **kwargs):
+                found, discovery = scan(surface, rng, resolution, *args, **kwargs)
+                t0 = time.perf_counter()
+                points, evaluations, step = band_crossings(
+                    surface, np.random.default_rng(7), resolution, cell * radius
+                )
+                # Only band points away from the usual seeds, and from each other.
+                d, crossings = spacing * radius, len(points)
+                if len(found.seeds):
+                    points = points[cKDTree(found.seeds).query(points)[0] > d]
+                extra = points[core.select_independent(points, np.full(len(points), d))]
+                info.update(band_s=round(time.perf_counter() - t0, 3), band_crossings=crossings,
+                            band_seeds=len(extra), band_evaluations=evaluations,
+                            band_step=step)  # fmt: skip
+                seeds = np.concatenate([found.seeds, extra])
+                return GridScan(seeds, found.crossings, found.spacing), discovery
+
+            methods._scan = seeded
+            mesh, wall = _mesh(name, radius)
+            wall -= info["band_s"]
+            row = _row(mesh, wall, surface=name, run="band", spacing=spacing, **info)
+            print(json.dumps(row), flush=True)
+    finally:
+        methods._scan = scan
+
+
 def _build_replay() -> Path:
     cmake = shutil.which("cmake")
     if cmake is None:
@@ -170,6 +301,22 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("surface")
     r.add_argument("radius", type=float)
     r.add_argument("--resolutions", type=int, nargs="+", default=[64, 150])
+    b = sub.add_parser("band", help="seed from a fine grid in a band around the surface")
+    b.add_argument("surface")
+    b.add_argument("radius", type=float)
+    b.add_argument(
+        "--spacings",
+        type=float,
+        nargs="+",
+        default=[1.0, 2.0, 2.6],
+        help="least distance between band seeds, times the radius bound",
+    )
+    b.add_argument(
+        "--cell",
+        type=float,
+        default=1.0,
+        help="finest band cell, at most this times the radius bound",
+    )
     i = sub.add_parser("insertion", help="replay one run's batches")
     i.add_argument("surface")
     i.add_argument("radius", type=float)
@@ -191,6 +338,10 @@ def main(argv: list[str] | None = None) -> int:
         if any(x < 2 for x in args.resolutions):
             p.error("resolutions need at least 2")
         resolution(args.surface, args.radius, args.resolutions)
+    elif args.lever == "band":
+        if any(not x > 0 for x in args.spacings) or not args.cell > 0:
+            p.error("--spacings and --cell must be positive")
+        band(args.surface, args.radius, args.spacings, args.cell)
     else:
         if args.threads < 1 or args.repeats < 1:
             p.error("--threads and --repeats need at least 1")
