@@ -1,6 +1,6 @@
 #!/usr/bin/env python
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""What two of issue 14's speed levers could give at most, measured.
+"""What issue 14's speed levers could give at most, measured.
 
 ``seeds``: the most that seeding near the final density can save. One run
 meshes the surface (f alone, as the suite's ``rdmesh_f_only``); then each run
