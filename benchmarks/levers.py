@@ -30,10 +30,14 @@ change sign are halved, level by level, down to ``--cell`` times the radius
 bound (f is evaluated only at the new nodes of those cells); the crossings
 on the finest cells' edges are thinned to points at least ``--spacing``
 times the radius bound apart, from each other and from the usual seeds, and
-added to them. The band's cost
-is printed (``band_s``) and is not part of ``wall_s``'s comparison::
+added to them. With ``--estimates`` they are thinned on linear estimates of
+the crossings and only the kept edges are searched for a root (add it to the
+second command below for the cheaper band). The band's cost
+is printed (``band_s``) and left out of ``wall_s``: ``wall_s + band_s`` is what
+the seeded run took::
 
-    python benchmarks/levers.py band torus 0.01068486690230627 --spacings 1 2 2.6
+    python benchmarks/levers.py band torus 0.01068486690230627 --spacings 1 1.5 2 2.6
+    python benchmarks/levers.py band torus 0.01068486690230627 --spacings 1.5 --cell 1.5
 
 Each prints one JSON object per run.
 """
@@ -122,55 +126,58 @@ def resolution(name: str, radius: float, resolutions: list[int]) -> None:
         print(json.dumps(row), flush=True)
 
 
-def band_crossings(surface, rng: np.random.Generator, resolution: int, cell: float):
-    """Crossings of the surface with the edges of a fine grid in the band of
-    grid cells that change sign: ``(points, evaluations, finest spacing)``.
+def _distinct(keys: np.ndarray) -> np.ndarray:
+    """Sorted distinct keys, by a sort (numpy's hashing ``unique`` took 5 times
+    as long on these)."""
+    keys = np.sort(keys)
+    return keys[np.r_[True, keys[1:] != keys[:-1]]] if len(keys) else keys
+
+
+def band_edges(surface, rng: np.random.Generator, resolution: int, cell: float):
+    """The sign-changing edges of a fine grid in the band of grid cells that
+    change sign: ``(origin, direction, f at both ends, evaluations, spacing)``.
 
     Level 0 is a rotated, shifted grid of ``resolution`` cells across the
     ball, as the seeding scan's; each level halves the cells whose corners
-    change sign, until the spacing is at most ``cell``.
+    change sign, until the spacing is at most ``cell``. f is evaluated only at
+    the new nodes of the halved cells, and only their nodes are kept.
     """
-    from rdmesh._tol import SHOT_ATOL
-    from rdmesh.sampling.roots import SegmentSamples, line_crossings
     from scipy.spatial.transform import Rotation
 
     c0, R = surface.centre, surface.radius
     h = 2.0 * R / resolution
     rot = Rotation.random(random_state=rng).as_matrix()
     base = -(R + h) + rng.uniform(0.0, h, size=3)
-    n = resolution + 3
+    dims = (resolution + 3,) * 3
 
     def at(ijk: np.ndarray, step: float) -> np.ndarray:
         return c0 + (base + ijk * step) @ rot.T
 
-    grid = np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), -1).reshape(-1, 3)
-    keys = np.ravel_multi_index(tuple(grid.T), (n,) * 3)
+    grid = np.stack(np.meshgrid(*(np.arange(dims[0]),) * 3, indexing="ij"), -1).reshape(-1, 3)
+    keys = np.arange(len(grid), dtype=np.int64)  # row-major order
     values = surface(at(grid, h))
     evaluations = len(keys)
-    inside = values.reshape(n, n, n) < 0
+    inside = values.reshape(dims) < 0
+    n = dims[0]
     corner = [inside[i : n - 1 + i, j : n - 1 + j, k : n - 1 + k]
               for i in (0, 1) for j in (0, 1) for k in (0, 1)]  # fmt: skip
     cells = np.argwhere(np.any(corner, 0) & ~np.all(corner, 0))
-    step, size = h, n
+    step = h
     sub = np.stack(np.meshgrid(*(np.arange(3),) * 3, indexing="ij"), -1).reshape(-1, 3)
     child = np.stack(np.meshgrid(*(np.arange(2),) * 3, indexing="ij"), -1).reshape(-1, 3)
     while step > cell and len(cells):
-        step, old, size = step / 2, size, 2 * (size - 1) + 1
-        # The known nodes, renumbered on the finer grid (sorted for lookups).
-        keys = np.ravel_multi_index(tuple(2 * np.array(np.unravel_index(keys, (old,) * 3))),
-                                    (size,) * 3)  # fmt: skip
-        order = np.argsort(keys)
-        keys, values = keys[order], values[order]
-        nodes = (2 * cells)[:, None, :] + sub[None]  # (m, 27, 3)
-        nk = np.ravel_multi_index(tuple(nodes.reshape(-1, 3).T), (size,) * 3)
-        uk = np.unique(nk)
-        pos = np.minimum(np.searchsorted(keys, uk), len(keys) - 1)
-        new = uk[keys[pos] != uk]
-        fresh = surface(at(np.stack(np.unravel_index(new, (size,) * 3), -1), step))
-        evaluations += len(new)
-        keys, values = np.concatenate([keys, new]), np.concatenate([values, fresh])
-        order = np.argsort(keys)
-        keys, values = keys[order], values[order]
+        step, old, dims = step / 2, dims, tuple(2 * d - 1 for d in dims)
+        # Doubling the coordinates keeps the keys in row-major order.
+        keys = np.ravel_multi_index(tuple(2 * np.stack(np.unravel_index(keys, old))), dims)
+        nk = np.ravel_multi_index(tuple(((2 * cells)[:, None, :] + sub).reshape(-1, 3).T), dims)
+        wanted = _distinct(nk)  # every later node is one of these
+        pos = np.minimum(np.searchsorted(keys, wanted), len(keys) - 1)
+        known = keys[pos] == wanted
+        fresh = np.empty(len(wanted))
+        fresh[known] = values[pos[known]]
+        fresh[~known] = surface(at(np.stack(np.unravel_index(wanted[~known], dims), -1), step))
+        evaluations += int((~known).sum())
+        keys, values = wanted, fresh
         signs = (values[np.searchsorted(keys, nk)] < 0).reshape(-1, 3, 3, 3)
         kids = []
         for a, b, c in child:
@@ -179,35 +186,75 @@ def band_crossings(surface, rng: np.random.Generator, resolution: int, cell: flo
             kids.append(2 * cells[mixed] + (a, b, c))
         cells = np.concatenate(kids)
     # Edges of the finest mixed cells, as (start node key, axis), once each.
-    starts, axes = [], []
+    starts = []
     for ax in range(3):
         u, v = [x for x in range(3) if x != ax]
         for du in (0, 1):
             for dv in (0, 1):
                 o = np.zeros(3, np.int64)
                 o[u], o[v] = du, dv
-                starts.append(np.ravel_multi_index(tuple((cells + o).T), (size,) * 3))
-                axes.append(np.full(len(cells), ax))
-    edge = np.unique(np.concatenate(starts) * 3 + np.concatenate(axes))
+                starts.append(3 * np.ravel_multi_index(tuple((cells + o).T), dims) + ax)
+    edge = _distinct(np.concatenate(starts))
     start, axis = edge // 3, edge % 3
-    a = np.stack(np.unravel_index(start, (size,) * 3), -1)
+    a = np.stack(np.unravel_index(start, dims), -1)
     b = a.copy()
     b[np.arange(len(b)), axis] += 1
-    end = np.ravel_multi_index(tuple(b.T), (size,) * 3)
-    change = (values[np.searchsorted(keys, start)] < 0) != (values[np.searchsorted(keys, end)] < 0)
+    end = np.ravel_multi_index(tuple(b.T), dims)
+    fa, fb = values[np.searchsorted(keys, start)], values[np.searchsorted(keys, end)]
+    change = (fa < 0) != (fb < 0)
     origin = at(a[change], step)
     direction = np.ascontiguousarray(rot[:, axis[change]].T)
+    return origin, direction, fa[change], fb[change], evaluations, step
+
+
+def _roots(surface, origin, direction, step):
+    from rdmesh._tol import SHOT_ATOL
+    from rdmesh.sampling.roots import SegmentSamples, line_crossings
+
     samples = SegmentSamples.uniform(np.full(len(origin), step), 1)
-    cr = line_crossings(surface, origin, direction, samples, xatol=SHOT_ATOL * R)
-    return cr.point, evaluations + int(change.sum()), step
+    return line_crossings(surface, origin, direction, samples, SHOT_ATOL * surface.radius).point
 
 
-def band(name: str, radius: float, spacings: list[float], cell: float) -> None:
-    """Runs seeded from a fine band grid's crossings, thinned to each spacing."""
+def band_crossings(surface, rng: np.random.Generator, resolution: int, cell: float):
+    """The crossings on :func:`band_edges`: ``(points, evaluations, spacing)``."""
+    origin, direction, _, _, evaluations, step = band_edges(surface, rng, resolution, cell)
+    return _roots(surface, origin, direction, step), evaluations + len(origin), step
+
+
+def band_seeds(surface, rng, resolution, cell, spacing, seeds, estimates=False):
+    """Band crossings at least ``spacing`` apart and from ``seeds``:
+    ``(points, crossings found or estimated, evaluations, band spacing)``.
+
+    With ``estimates``, thinned on the linear estimates of the crossings
+    (within a band cell of them, so kept ``spacing + step`` from the seeds),
+    and only the kept edges are searched for their root.
+    """
     from rdmesh import core
+    from scipy.spatial import cKDTree
+
+    if not estimates:
+        points, evaluations, step = band_crossings(surface, rng, resolution, cell)
+        n, far = len(points), spacing
+    else:
+        origin, direction, fa, fb, evaluations, step = band_edges(surface, rng, resolution, cell)
+        points = origin + (step * fa / (fa - fb))[:, None] * direction
+        n, far = len(points), spacing + step
+    keep = np.ones(n, bool)
+    if len(seeds) and n:
+        keep = cKDTree(seeds).query(points)[0] > far
+    pick = np.flatnonzero(keep)[
+        core.select_independent(points[keep], np.full(keep.sum(), spacing))
+    ]
+    if not estimates:
+        return points[pick], n, evaluations, step
+    found = _roots(surface, origin[pick], direction[pick], step)
+    return found, n, evaluations + len(pick), step
+
+
+def band(name: str, radius: float, spacings: list[float], cell: float, estimates: bool) -> None:
+    """Runs seeded from a fine band grid's crossings, thinned to each spacing."""
     from rdmesh.refine import methods
     from rdmesh.sampling.grid import GridScan
-    from scipy.spatial import cKDTree
 
     first, wall = _mesh(name, radius)
     print(json.dumps(_row(first, wall, surface=name, run="first", spacing=None)), flush=True)
@@ -219,15 +266,11 @@ def band(name: str, radius: float, spacings: list[float], cell: float) -> None:
             def seeded(surface, rng, resolution, *args, spacing=spacing, info=info, **kwargs):
                 found, discovery = scan(surface, rng, resolution, *args, **kwargs)
                 t0 = time.perf_counter()
-                points, evaluations, step = band_crossings(
-                    surface, np.random.default_rng(7), resolution, cell * radius
-                )
-                # Only band points away from the usual seeds, and from each other.
-                d, crossings = spacing * radius, len(points)
-                if len(found.seeds):
-                    points = points[cKDTree(found.seeds).query(points)[0] > d]
-                extra = points[core.select_independent(points, np.full(len(points), d))]
-                info.update(band_s=round(time.perf_counter() - t0, 3), band_crossings=crossings,
+                extra, n, evaluations, step = band_seeds(
+                    surface, np.random.default_rng(7), resolution, cell * radius,
+                    spacing * radius, found.seeds, estimates,
+                )  # fmt: skip
+                info.update(band_s=round(time.perf_counter() - t0, 3), band_crossings=n,
                             band_seeds=len(extra), band_evaluations=evaluations,
                             band_step=step)  # fmt: skip
                 seeds = np.concatenate([found.seeds, extra])
@@ -317,6 +360,11 @@ def main(argv: list[str] | None = None) -> int:
         default=1.0,
         help="finest band cell, at most this times the radius bound",
     )
+    b.add_argument(
+        "--estimates",
+        action="store_true",
+        help="thin on linear estimates of the crossings; search only the kept edges",
+    )
     i = sub.add_parser("insertion", help="replay one run's batches")
     i.add_argument("surface")
     i.add_argument("radius", type=float)
@@ -341,7 +389,7 @@ def main(argv: list[str] | None = None) -> int:
     elif args.lever == "band":
         if any(not x > 0 for x in args.spacings) or not args.cell > 0:
             p.error("--spacings and --cell must be positive")
-        band(args.surface, args.radius, args.spacings, args.cell)
+        band(args.surface, args.radius, args.spacings, args.cell, args.estimates)
     else:
         if args.threads < 1 or args.repeats < 1:
             p.error("--threads and --repeats need at least 1")
