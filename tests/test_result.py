@@ -136,3 +136,16 @@ def test_summary_mentions_size_and_topology(sphere_case):
     assert f"vertices {len(m.vertices)}, faces {len(m.faces)}" in text
     assert "closed manifold: yes" in text
     assert "INCOMPLETE" not in text
+
+
+def test_phase_seconds_count_the_core_thread_apart(torus_case):
+    phases = torus_case.mesh.stats["phase_seconds"]
+    wall = torus_case.mesh.stats["seconds"]
+    # The core thread's jobs are timed on their own: they overlap the main
+    # thread's phases, so together they are at most the run's wall time, as
+    # are the main thread's phases (the loop test's time is inside them).
+    core = phases["core_changed_facets"] + phases["core_update_facets"]
+    assert phases["core_changed_facets"] > 0 and phases["core_update_facets"] > 0
+    assert core <= wall
+    main = [v for k, v in phases.items() if not k.startswith("core_") and k != "voronoi_loop"]
+    assert sum(main) <= wall + 1e-3

@@ -31,7 +31,10 @@ class SurfaceMesh:
     stats : dict
         Run statistics: ``seconds``, ``rounds``, ``vertices``, ``faces``,
         ``evaluations`` (points at which ``f`` was evaluated), ``inserted`` per
-        stage, ``unresolved`` and more.
+        stage, ``unresolved``, ``phase_seconds`` and more. ``phase_seconds``
+        adds up the wall time of each phase of the main thread; its
+        ``core_changed_facets`` and ``core_update_facets`` are the core
+        thread's busy time, which overlaps them.
     complete : bool
         False when a budget stopped refinement early (see :class:`BudgetExceeded`),
         or when points were left unresolved. A complete mesh meshed with

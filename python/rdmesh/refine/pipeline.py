@@ -110,24 +110,37 @@ class FacetPipeline:
     def _update(self, vertices: np.ndarray) -> None:
         rdt, timed = self.rdt, self.timer
         updates = []
-        job = self._worker.submit(rdt.changed_facets, FIRST_CHUNK, **SAMPLING)
+        changed = self._on_worker("core_changed_facets", rdt.changed_facets)
+        update = self._on_worker("core_update_facets", rdt.update_facets)
+        job = self._worker.submit(changed, FIRST_CHUNK, **SAMPLING)
         while True:
             with timed("changed_facets"):
                 tri, seg, end_index, ends, rho, samples = job.result()
             if len(tri) == 0:
                 break
-            job = self._worker.submit(rdt.changed_facets, CORE_CHUNK, **SAMPLING)
+            job = self._worker.submit(changed, CORE_CHUNK, **SAMPLING)
             with timed("evaluate"):
                 f_ends = self.surface(ends)
                 if not self.clipped:
                     check_sphere_ends(self.surface, ends, f_ends)
                 end_f = f_ends[end_index]
                 flags, centres = self._flags(vertices, tri, seg, end_f, rho, DualSamples(*samples))
-            updates.append(self._worker.submit(rdt.update_facets, flags, centres))
+            updates.append(self._worker.submit(update, flags, centres))
             self.evaluated += len(tri)
         with timed("update_facets"):
             for u in updates:
                 u.result()  # re-raises a failure
+
+    def _on_worker(self, phase: str, call):
+        """``call`` timed as ``phase`` (the core thread's busy time, which
+        overlaps the main thread's phases)."""
+        timed = self.timer
+
+        def run(*args, **kwargs):
+            with timed(phase):
+                return call(*args, **kwargs)
+
+        return run
 
     def _flags(self, vertices, tri, seg, end_f, rho, samples):
         """Flags (restricted, bad, topology, outward) and surface centres of a chunk."""

@@ -8,7 +8,11 @@ from contextlib import contextmanager
 
 
 class PhaseTimer:
-    """Adds up the wall time spent in named phases."""
+    """Adds up the wall time spent in named phases.
+
+    The main thread and the core's worker thread each time phases of their
+    own, so no phase is added to from two threads.
+    """
 
     def __init__(self) -> None:
         self.seconds: dict[str, float] = {}
