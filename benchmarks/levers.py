@@ -141,6 +141,7 @@ def band_edges(surface, rng: np.random.Generator, resolution: int, cell: float):
     ball, as the seeding scan's; each level halves the cells whose corners
     change sign, until the spacing is at most ``cell``. f is evaluated only at
     the new nodes of the halved cells, and only their nodes are kept.
+    ``evaluations`` counts the grid nodes where f was evaluated.
     """
     from scipy.spatial.transform import Rotation
 
@@ -216,14 +217,15 @@ def _roots(surface, origin, direction, step):
 
 
 def band_crossings(surface, rng: np.random.Generator, resolution: int, cell: float):
-    """The crossings on :func:`band_edges`: ``(points, evaluations, spacing)``."""
-    origin, direction, _, _, evaluations, step = band_edges(surface, rng, resolution, cell)
-    return _roots(surface, origin, direction, step), evaluations + len(origin), step
+    """The crossings on :func:`band_edges`: ``(points, evaluations of f in all, spacing)``."""
+    before = surface.evaluations
+    origin, direction, _, _, _, step = band_edges(surface, rng, resolution, cell)
+    return _roots(surface, origin, direction, step), surface.evaluations - before, step
 
 
 def band_seeds(surface, rng, resolution, cell, spacing, seeds, estimates=False):
     """Band crossings at least ``spacing`` apart and from ``seeds``:
-    ``(points, crossings found or estimated, evaluations, band spacing)``.
+    ``(points, crossings found or estimated, evaluations of f in all, band spacing)``.
 
     With ``estimates``, thinned on the linear estimates of the crossings
     (within a band cell of them, so kept ``spacing + step`` from the seeds),
@@ -232,11 +234,12 @@ def band_seeds(surface, rng, resolution, cell, spacing, seeds, estimates=False):
     from rdmesh import core
     from scipy.spatial import cKDTree
 
+    before = surface.evaluations
     if not estimates:
-        points, evaluations, step = band_crossings(surface, rng, resolution, cell)
+        points, _, step = band_crossings(surface, rng, resolution, cell)
         n, far = len(points), spacing
     else:
-        origin, direction, fa, fb, evaluations, step = band_edges(surface, rng, resolution, cell)
+        origin, direction, fa, fb, _, step = band_edges(surface, rng, resolution, cell)
         points = origin + (step * fa / (fa - fb))[:, None] * direction
         n, far = len(points), spacing + step
     keep = np.ones(n, bool)
@@ -245,10 +248,9 @@ def band_seeds(surface, rng, resolution, cell, spacing, seeds, estimates=False):
     pick = np.flatnonzero(keep)[
         core.select_independent(points[keep], np.full(keep.sum(), spacing))
     ]
-    if not estimates:
-        return points[pick], n, evaluations, step
-    found = _roots(surface, origin[pick], direction[pick], step)
-    return found, n, evaluations + len(pick), step
+    if estimates:
+        points, pick = _roots(surface, origin[pick], direction[pick], step), slice(None)
+    return points[pick], n, surface.evaluations - before, step
 
 
 def band(name: str, radius: float, spacings: list[float], cell: float, estimates: bool) -> None:
