@@ -558,15 +558,32 @@ PYBIND11_MODULE(_rdt, m) {
           "has_clip_box", [](const RestrictedDelaunay& self) { return self.has_clip_box(); })
       .def(
           "insert",
-          [](RestrictedDelaunay& self, const InArray& points) {
+          [](RestrictedDelaunay& self, const InArray& points, std::optional<InArray> weights) {
             const std::vector<double> xyz = rows3(points, "points");
-            std::vector<std::int64_t> ids =
-                locked(self, [&] { return self.insert(xyz.data(), xyz.size() / 3); });
+            std::vector<double> w;
+            if (weights) {
+              if (weights->ndim() != 1 ||
+                  static_cast<std::size_t>(weights->shape(0)) * 3 != xyz.size())
+                throw std::invalid_argument("weights must have shape (k,) matching points (k, 3)");
+              w = copy_of<double>(*weights);
+            }
+            std::vector<std::int64_t> ids = locked(self, [&] {
+              return self.insert(xyz.data(), xyz.size() / 3, weights ? w.data() : nullptr);
+            });
             return to_numpy(ids, {static_cast<py::ssize_t>(ids.size())});
           },
-          py::arg("points"),
-          "Insert (k, 3) points; returns (k,) vertex ids (existing ids for "
-          "duplicates).")
+          py::arg("points"), py::arg("weights") = py::none(),
+          "Insert (k, 3) points with weights (k,) (default 0: samples; a positive weight "
+          "w is a protecting ball of radius sqrt(w)); returns (k,) vertex ids (existing "
+          "ids for duplicates, -1 for a point of weight 0 that the balls hide). "
+          "ValueError for a ball that would hide a vertex.")
+      .def(
+          "weights",
+          [](RestrictedDelaunay& self) {
+            std::vector<double> w = locked(self, [&] { return self.weights(); });
+            return to_numpy(w, {static_cast<py::ssize_t>(w.size())});
+          },
+          "(n,) the weight of every vertex, by id.")
       .def(
           "changed_facets",
           [](RestrictedDelaunay& self, std::size_t max_facets, double per_radius,

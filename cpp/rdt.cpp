@@ -65,7 +65,7 @@ RestrictedDelaunay::RestrictedDelaunay(const std::array<double, 3>& centre,
   }
   cell_epoch = 0;  // not a stale value from another object's insert
   for (const Point& p : corners) {
-    Vertex_handle v = dt_.insert(p);
+    Vertex_handle v = dt_.insert(Weighted_point(p, 0.0));
     v->info().id = -1;
     hint_ = v;
   }
@@ -81,7 +81,7 @@ bool RestrictedDelaunay::is_dummy(Vertex_handle v) const {
 }
 
 std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
-                                                     std::size_t n) {
+                                                     std::size_t n, const double* w) {
   const double limit = 2.0 * radius_;
   std::vector<Point> pts;
   pts.reserve(n);
@@ -94,6 +94,10 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
     if (std::hypot(p[0] - c0_[0], p[1] - c0_[1], p[2] - c0_[2]) > limit)
       throw std::invalid_argument("point " + std::to_string(k) +
                                   " lies outside twice the bounding radius");
+    if (w && !(w[k] >= 0.0 && w[k] < radius_ * radius_))
+      throw std::invalid_argument("point " + std::to_string(k) + " has weight " +
+                                  std::to_string(w[k]) +
+                                  "; weights must be >= 0 and below the bounding radius squared");
     pts.emplace_back(p[0], p[1], p[2]);
   }
   std::vector<std::size_t> order(n);
@@ -113,8 +117,29 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
   reserve_more(samples_, n);
   reserve_more(last_new_, n);
   cell_epoch = ++epoch_;
+  std::vector<Vertex_handle> inside;
   for (std::size_t k : order) {
-    Vertex_handle v = dt_.insert(pts[k], hint_);
+    const Weighted_point wp(pts[k], w ? w[k] : 0.0);
+    Regular::Locate_type lt;
+    int li, lj;
+    const Cell_handle c = dt_.locate(wp, lt, li, lj, hint_);
+    if (wp.weight() > 0.0) {
+      // A ball must not hide a vertex: its handle would dangle in samples_.
+      inside.clear();
+      if (lt != Regular::VERTEX) dt_.vertices_inside_conflict_zone(wp, c, std::back_inserter(inside));
+      if (lt == Regular::VERTEX || !inside.empty())
+        throw std::invalid_argument(
+            "point " + std::to_string(k) + " (weight " + std::to_string(wp.weight()) +
+            ") would hide " +
+            (lt == Regular::VERTEX ? std::string("the vertex at its own position")
+                                   : std::to_string(inside.size()) + " vertices") +
+            ": insert protecting balls before the samples, with no centre inside another ball");
+    }
+    Vertex_handle v = dt_.insert(wp, lt, c, li, lj);
+    if (v == Vertex_handle()) {
+      ids[k] = -1;  // hidden by the balls
+      continue;
+    }
     if (v->info().id == -2) {
       v->info().id = static_cast<std::int64_t>(samples_.size());
       samples_.push_back(v);
@@ -128,31 +153,38 @@ std::vector<std::int64_t> RestrictedDelaunay::insert(const double* xyz,
 
 namespace {
 
-// Spread of the squared distances from x to the four points, relative to the
-// largest (T: the arithmetic it is computed in).
+// Spread of the powers of x to the four weighted points (squared distance
+// minus weight), relative to the largest squared distance (T: the arithmetic
+// it is computed in).  With weights 0: the spread of the squared distances.
 template <typename T>
-T spread(const std::array<T, 3>& x, const Point* const v[4]) {
-  T lo = std::numeric_limits<T>::infinity(), hi = 0;
+T spread(const std::array<T, 3>& x, const Weighted_point* const v[4]) {
+  T lo = std::numeric_limits<T>::infinity(), hi = -lo, top = 0;
   for (int i = 0; i < 4; ++i) {
     const T d[3] = {x[0] - T(v[i]->x()), x[1] - T(v[i]->y()), x[2] - T(v[i]->z())};
     const T d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-    lo = std::min(lo, d2);
-    hi = std::max(hi, d2);
+    const T pw = v[i]->weight() != 0.0 ? d2 - T(v[i]->weight()) : d2;
+    lo = std::min(lo, pw);
+    hi = std::max(hi, pw);
+    top = std::max(top, d2);
   }
-  return (hi - lo) / hi;  // NaN for a non-finite x
+  return (hi - lo) / top;  // NaN for a non-finite x
 }
 
-// The circumcentre in T arithmetic (long double, or CGAL::Exact_rational for
-// the exact one), by Cramer's rule on coordinates relative to the first point.
-// Every expression is stored in a T: gmpxx's expression templates would dangle.
+// The weighted circumcentre in T arithmetic (long double, or
+// CGAL::Exact_rational for the exact one), by Cramer's rule on coordinates
+// relative to the first point: 2 m_i . x = |m_i|^2 - (w_i - w_0).  Every
+// expression is stored in a T: gmpxx's expression templates would dangle.
 template <typename T>
-std::array<T, 3> circumcentre_in(const Point* const v[4]) {
+std::array<T, 3> circumcentre_in(const Weighted_point* const v[4]) {
   T m[3][3], rhs[3];
   for (int i = 0; i < 3; ++i) {
     m[i][0] = T(v[i + 1]->x()) - T(v[0]->x());
     m[i][1] = T(v[i + 1]->y()) - T(v[0]->y());
     m[i][2] = T(v[i + 1]->z()) - T(v[0]->z());
-    rhs[i] = (m[i][0] * m[i][0] + m[i][1] * m[i][1] + m[i][2] * m[i][2]) / 2;
+    rhs[i] = m[i][0] * m[i][0] + m[i][1] * m[i][1] + m[i][2] * m[i][2];
+    if (v[i + 1]->weight() != v[0]->weight())
+      rhs[i] = rhs[i] - (T(v[i + 1]->weight()) - T(v[0]->weight()));
+    rhs[i] = rhs[i] / 2;
   }
   auto det = [](const T a[3][3]) -> T {
     return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
@@ -171,6 +203,12 @@ std::array<T, 3> circumcentre_in(const Point* const v[4]) {
   return out;
 }
 
+bool weighted(const Weighted_point* const v[], int n) {
+  for (int i = 0; i < n; ++i)
+    if (v[i]->weight() != 0.0) return true;
+  return false;
+}
+
 }  // namespace
 
 const std::array<double, 3>& RestrictedDelaunay::circumcentre(Cell_handle c) {
@@ -179,12 +217,15 @@ const std::array<double, 3>& RestrictedDelaunay::circumcentre(Cell_handle c) {
     // No centre; callers skip infinite cells.
     info.cc.fill(std::numeric_limits<double>::infinity());
   } else if (std::isnan(info.cc[0])) {
-    const Point* v[4] = {&c->vertex(0)->point(), &c->vertex(1)->point(),
-                         &c->vertex(2)->point(), &c->vertex(3)->point()};
-    // A Voronoi vertex must be equidistant from its four samples. Doubles
+    const Weighted_point* v[4] = {&c->vertex(0)->point(), &c->vertex(1)->point(),
+                                  &c->vertex(2)->point(), &c->vertex(3)->point()};
+    // A Voronoi vertex must have equal power to its four vertices. Doubles
     // lose that on nearly flat cells with nearly cocircular vertices (as
     // regular samples make); long doubles, then exact arithmetic, settle them.
-    const Point x = CGAL::circumcenter(*v[0], *v[1], *v[2], *v[3]);
+    const Point x =
+        weighted(v, 4)
+            ? K().construct_weighted_circumcenter_3_object()(*v[0], *v[1], *v[2], *v[3])
+            : CGAL::circumcenter(v[0]->point(), v[1]->point(), v[2]->point(), v[3]->point());
     const std::array<double, 3> xd = to_vec(x);
     if (spread(xd, v) <= kEquidistance) {
       info.cc = xd;
@@ -448,11 +489,9 @@ ChangedFacets RestrictedDelaunay::changed_facets(
       out.tri.insert(out.tri.end(), t.begin(), t.end());
       out.seg.insert(out.seg.end(), a.begin(), a.end());
       out.seg.insert(out.seg.end(), b.begin(), b.end());
-      const double rho = std::sqrt(CGAL::squared_radius(
-          c->vertex((i + 1) & 3)->point(), c->vertex((i + 2) & 3)->point(),
-          c->vertex((i + 3) & 3)->point()));
+      const double rho = facet_radius(c, i);
       out.rho.push_back(rho);
-      const Vec3 apex = to_vec(samples_[t[0]]->point());
+      const Vec3 apex = to_vec(samples_[t[0]]->point().point());
       out.samples.add(a.data(), b.data(), apex.data(), rho, sampling);
       out.end_index.push_back(a == a0 ? cell_end(ca) : point_end(a));
       out.end_index.push_back(b == b0 ? cell_end(cb) : point_end(b));
@@ -640,12 +679,32 @@ std::vector<double> RestrictedDelaunay::samples() const {
   std::vector<double> out;
   out.reserve(3 * samples_.size());
   for (Vertex_handle v : samples_) {
-    const Point& p = v->point();
+    const Weighted_point& p = v->point();
     out.push_back(p.x());
     out.push_back(p.y());
     out.push_back(p.z());
   }
   return out;
+}
+
+std::vector<double> RestrictedDelaunay::weights() const {
+  std::vector<double> out;
+  out.reserve(samples_.size());
+  for (Vertex_handle v : samples_) out.push_back(v->point().weight());
+  return out;
+}
+
+double RestrictedDelaunay::facet_radius(Cell_handle c, int i) const {
+  const Weighted_point* v[3] = {&c->vertex((i + 1) & 3)->point(), &c->vertex((i + 2) & 3)->point(),
+                                &c->vertex((i + 3) & 3)->point()};
+  if (!weighted(v, 3))
+    return std::sqrt(CGAL::squared_radius(v[0]->point(), v[1]->point(), v[2]->point()));
+  // The smallest sphere orthogonal to the three balls; its squared radius is
+  // negative only where the three balls share a point (not for a protected
+  // complex, whose balls meet at most in pairs).
+  const double r2 =
+      K().compute_squared_radius_smallest_orthogonal_sphere_3_object()(*v[0], *v[1], *v[2]);
+  return r2 > 0.0 ? std::sqrt(r2) : 0.0;
 }
 
 ChangedFacets RestrictedDelaunay::all_facets() {
@@ -676,8 +735,8 @@ ChangedFacets RestrictedDelaunay::all_facets() {
 
 void RestrictedDelaunay::check() const {
   if (!dt_.is_valid(false))
-    throw std::runtime_error("the triangulation is not a valid Delaunay "
-                             "triangulation");
+    throw std::runtime_error("the triangulation is not a valid regular "
+                             "(weighted Delaunay) triangulation");
   for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
     for (int i = 0; i < 4; ++i) {
       Cell_handle nb = c->neighbor(i);

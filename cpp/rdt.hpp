@@ -1,8 +1,13 @@
-// Restricted Delaunay bookkeeping over CGAL's Delaunay_triangulation_3.
+// Restricted Delaunay bookkeeping over CGAL's Regular_triangulation_3.
 //
-// The class keeps the 3D Delaunay triangulation of the samples plus eight far
-// dummy points, so every Voronoi edge that can meet the bounding ball is a
-// finite segment.  Per-facet restricted data (flags, surface centre) lives in
+// The class keeps the 3D regular (weighted Delaunay) triangulation of the
+// samples plus eight far dummy points, so every Voronoi edge that can meet the
+// bounding ball is a finite segment.  Samples have weight 0; protecting balls
+// (creases.md) are vertices of positive weight w, the ball of radius sqrt(w).
+// Where every weight is 0 the triangulation is the Delaunay triangulation and
+// the power diagram the Voronoi diagram: "circumcentre" below is the weighted
+// circumcentre (equal power to the four vertices), "radius" the power radius
+// sqrt(|x - p|^2 - w_p).  Per-facet restricted data (flags, surface centre) lives in
 // the cells, as in CGAL's Surface_mesh_cell_base_3, so it disappears with the
 // cells a batch destroys.  No Python headers here.
 //
@@ -20,8 +25,10 @@
 #include <new>
 #include <vector>
 
-#include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Regular_triangulation_3.h>
+#include <CGAL/Regular_triangulation_vertex_base_3.h>
+#include <CGAL/Triangulation_cell_base_3.h>
 #include <CGAL/Triangulation_cell_base_with_info_3.h>
 #include <CGAL/Triangulation_data_structure_3.h>
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
@@ -32,6 +39,7 @@ namespace rdmesh {
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = K::Point_3;
+using Weighted_point = K::Weighted_point_3;
 
 // Facet flag bits, set by Python (module.cpp exports them).  BAD and TOPO are
 // opaque labels here (Python: fails a criterion / crosses the surface badly).
@@ -76,12 +84,45 @@ struct CellInfo {
   std::int32_t born = cell_epoch;
 };
 
-using Vb = CGAL::Triangulation_vertex_base_with_info_3<VertexInfo, K>;
-using Cb = CGAL::Triangulation_cell_base_with_info_3<CellInfo, K>;
+// The cell base Regular_triangulation_3 needs, without storage for hidden
+// points: CGAL's Regular_triangulation_cell_base_3 keeps a std::list in every
+// cell (24 bytes) even when its policy discards them.  Hidden points are
+// never kept here (a sample inside a protecting ball is not inserted).
+template <typename GT, typename Cb = CGAL::Triangulation_cell_base_3<GT>>
+class Cell_base_without_hidden_points : public Cb {
+ public:
+  using Vertex_handle = typename Cb::Vertex_handle;
+  using Cell_handle = typename Cb::Cell_handle;
+  using Geom_traits = GT;
+  using Point_3 = typename GT::Point_3;
+  using Point = typename GT::Weighted_point_3;
+  using Point_iterator = Point*;
+  using Point_const_iterator = const Point*;
+
+  template <typename TDS2>
+  struct Rebind_TDS {
+    using Cb2 = typename Cb::template Rebind_TDS<TDS2>::Other;
+    using Other = Cell_base_without_hidden_points<GT, Cb2>;
+  };
+
+  using Cb::Cb;
+
+  Point_iterator hidden_points_begin() { return nullptr; }
+  Point_iterator hidden_points_end() { return nullptr; }
+  Point_const_iterator hidden_points_begin() const { return nullptr; }
+  Point_const_iterator hidden_points_end() const { return nullptr; }
+  void hide_point(const Point&) {}
+  void unhide_point(Point_iterator) {}
+};
+
+using Vb = CGAL::Triangulation_vertex_base_with_info_3<
+    VertexInfo, K, CGAL::Regular_triangulation_vertex_base_3<K>>;
+using Cb = CGAL::Triangulation_cell_base_with_info_3<CellInfo, K,
+                                                     Cell_base_without_hidden_points<K>>;
 using Tds = CGAL::Triangulation_data_structure_3<Vb, Cb>;
-using Delaunay = CGAL::Delaunay_triangulation_3<K, Tds>;
-using Cell_handle = Delaunay::Cell_handle;
-using Vertex_handle = Delaunay::Vertex_handle;
+using Regular = CGAL::Regular_triangulation_3<K, Tds>;
+using Cell_handle = Regular::Cell_handle;
+using Vertex_handle = Regular::Vertex_handle;
 
 // Facets whose dual changed in the last batch, with clipped dual segments.
 struct ChangedFacets {
@@ -120,9 +161,15 @@ class RestrictedDelaunay {
  public:
   RestrictedDelaunay(const std::array<double, 3>& centre, double radius);
 
-  // Insert n points (xyz, row-major); returns one id per point.  A point that
-  // coincides with an existing sample gets that sample's id.
-  std::vector<std::int64_t> insert(const double* xyz, std::size_t n);
+  // Insert n points (xyz, row-major) with weights w (n values >= 0; null: all
+  // 0); returns one id per point.  A point that coincides with an existing
+  // vertex of the same weight gets that vertex's id; a point of weight 0
+  // that the balls hide (it lies where a ball has smaller power) gets -1 and
+  // is not a vertex.  Throws std::invalid_argument for a point of positive
+  // weight that would hide a vertex (lie on one, or cover one's power cell):
+  // balls go in before the samples they must not hide.
+  std::vector<std::int64_t> insert(const double* xyz, std::size_t n,
+                                   const double* w = nullptr);
 
   // Facets of the cells created since the previous round whose clipped dual
   // meets the bounding ball, in chunks of about max_facets (0: all at once);
@@ -214,6 +261,7 @@ class RestrictedDelaunay {
   std::uint64_t exact_circumcentres() const { return exact_circumcentres_; }
   std::size_t number_of_cells() const { return dt_.number_of_finite_cells(); }
   std::vector<double> samples() const;
+  std::vector<double> weights() const;
 
   // Every facet whose clipped dual meets the bounding ball (no effect on the
   // rounds; fills the circumcentre cache); for checking the incremental
@@ -230,6 +278,9 @@ class RestrictedDelaunay {
  private:
   // Fills the cell's circumcentre cache on first use.
   const std::array<double, 3>& circumcentre(Cell_handle c);
+  // Radius of the smallest sphere orthogonal to facet (c, i)'s three vertex
+  // balls (its circumradius when the weights are 0); 0 when there is none.
+  double facet_radius(Cell_handle c, int i) const;
   bool is_dummy(Vertex_handle v) const;
   bool clip(std::array<double, 3>& a, std::array<double, 3>& b) const;
   bool gather_more();
@@ -242,7 +293,7 @@ class RestrictedDelaunay {
   void reset_end_stamps();
   void compact_centres();
 
-  Delaunay dt_;
+  Regular dt_;
   std::array<double, 3> c0_;
   double radius_;
   bool has_box_ = false;
@@ -276,7 +327,7 @@ class RestrictedDelaunay {
   std::size_t vertex_cursor_ = 0;   // next vertex whose cells to gather
   bool scan_ = false;
   bool gathered_all_ = true;
-  Delaunay::Finite_cells_iterator scan_it_;
+  Regular::Finite_cells_iterator scan_it_;
   std::int32_t epoch_ = 0;        // insertions so far
   std::int32_t report_from_ = 1;  // first epoch not handed out yet
   std::int32_t round_from_ = 1;   // ... as of this round's start
