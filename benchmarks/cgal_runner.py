@@ -538,7 +538,7 @@ def polyhedron_command(
 ) -> list[str]:
     """The command remeshing the closed triangle mesh ``mesh`` (OFF,
     :func:`write_off`) with ``mesh_3_polyhedron``: its edges whose normals
-    differ by more than ``feature_angle`` degrees protected (CGAL's
+    differ by ``feature_angle`` degrees or more protected (CGAL's
     ``detect_features``).  There is no oracle error bound (exact AABB-tree
     intersections).
 

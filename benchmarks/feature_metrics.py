@@ -49,8 +49,8 @@ Metrics
   (``metrics.triangle_angles``).
 - :func:`topology`: closed manifold, components, Euler characteristic
   (``metrics.topology_stats``) and the genus of a closed orientable mesh.
-- :func:`sharp_edges`: the mesh edges whose two faces' normals differ by more
-  than an angle (CGAL's ``detect_features`` rule).
+- :func:`sharp_edges`: the mesh edges whose two faces' normals differ by an
+  angle or more (CGAL's ``detect_features`` rule).
 
 Distances of vertices to the curves are computed exactly only for vertices
 that a k-d tree of dense curve samples finds near a curve (within the
@@ -526,8 +526,10 @@ def topology(vertices: Any, faces: Any) -> dict:
 
 def sharp_edges(vertices: Any, faces: Any, angle: float) -> np.ndarray:
     """The edges ``(E, 2)`` (sorted vertex pairs) in exactly two faces whose
-    unit normals differ by more than ``angle`` degrees (CGAL's
-    ``detect_features(angle)`` rule; a flat edge is 0, a cube edge 90)."""
+    unit normals differ by ``angle`` degrees or more (CGAL's
+    ``detect_features(angle)`` rule, ``PMP::detect_sharp_edges``: the cosine
+    of the normals' angle at most ``cos(angle)``; a flat edge is 0, a cube
+    edge 90)."""
     v = _points(vertices)
     f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
@@ -541,5 +543,5 @@ def sharp_edges(vertices: Any, faces: Any, angle: float) -> np.ndarray:
     pairs = owner[two][order].reshape(-1, 2)
     keys = inv[two][order][::2]
     cos = np.einsum("ij,ij->i", n[pairs[:, 0]], n[pairs[:, 1]])
-    sharp = cos < np.cos(np.radians(angle))
+    sharp = cos <= np.cos(np.radians(angle))
     return uniq[keys[sharp]]

@@ -124,6 +124,16 @@ def test_closed_loop_and_chords():
     assert last["edges_on_curves"] == 2
 
 
+def test_overlapping_edges_count_once():
+    # Edges [0, 1] and [0, 0.5] of the segment from 0 to 2 (a non-manifold
+    # soup): the union covers half of it.
+    v = np.array([[0, 0, 0], [1, 0, 0], [0.5, 0, 0], [0, 1, 0], [0, -1, 0]], float)
+    f = np.array([[0, 1, 3], [0, 2, 4]])
+    cov = fm.crease_coverage(v, f, [np.array([[0.0, 0, 0], [2.0, 0, 0]])])
+    assert cov["coverage"] == pytest.approx(0.5, abs=1e-12)
+    assert cov["edges_on_curves"] == 2
+
+
 def test_arc_distances_and_sagitta():
     arc = cad_shapes.box_ball_curves()[-1]
     assert arc.radius == pytest.approx(0.8) and arc.sweep == pytest.approx(np.pi / 2)

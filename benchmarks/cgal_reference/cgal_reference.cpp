@@ -67,7 +67,7 @@
 // "mesh_3_polyhedron" remeshes a closed triangle mesh (--input MESH.off)
 // with Polyhedral_mesh_domain_with_features_3: detect_features(A) with
 // A = --feature-angle (CGAL's rule: an edge is sharp where the normals of its
-// two triangles differ by more than A degrees; sharp edges are chained into
+// two triangles differ by at least A degrees; sharp edges are chained into
 // curves split at corners), then make_mesh_3 with the criteria of
 // "mesh_3_features".  Reading the file is not timed; detect_features is
 // (its "seconds" also has "detect_seconds" on its own).  "evaluations" is 0.
@@ -423,12 +423,13 @@ const char* const kUsage =
     "                   xn yn zn; polylines may meet only at their end points)\n"
     "  mesh_3_polyhedron: make_mesh_3 (no manifold) on the closed triangle mesh\n"
     "                     MESH.off with its sharp edges protected\n"
-    "                     (detect_features(FA): normals differ by more than FA)\n"
+    "                     (detect_features(FA): normals differ by FA or more)\n"
     "  delaunay: time Delaunay_triangulation_3(begin, end) of the points of FILE\n"
     "            (x y z per line)\n"
     "  NAME: sphere ellipsoid torus thin_torus double_torus tanglecube\n"
-    "        two_spheres blob_line box box_ball; clipped by their sphere (surface_mesher_boundary\n"
-    "        only): clipped_gyroid clipped_plane clipped_cylinder clipped_half_torus;\n"
+    "        two_spheres blob_line box box_ball; clipped by their sphere\n"
+    "        (surface_mesher_boundary only): clipped_gyroid clipped_plane\n"
+    "        clipped_cylinder clipped_half_torus;\n"
     "        clipped by a box (mesh_3_box only): box_gyroid box_plane\n"
     "  A: minimum facet angle bound in degrees, 0 < A < 90 (CGAL guarantees\n"
     "     termination only for A <= 30)\n"
