@@ -43,6 +43,36 @@ spacing, origin, isovalue, ...)`` is the command line; ``init`` is
 per connected component of the samples above the isovalue first).  Its JSON
 has ``surface`` null and ``dims``, ``spacing``, ``origin``, ``isovalue``,
 ``init`` instead of ``bounding_sphere``.
+
+Protected 1D features (issue 27):
+
+- ``mesh_3_features``: make_mesh_3 on
+  ``Mesh_domain_with_polyline_features_3<Labeled_mesh_domain_3>`` (the
+  implicit domain of ``mesh_3``) with the polylines of a file protected:
+  ``write_polylines(path, polylines)`` writes them (CGAL's text format, one
+  polyline per line, ``n x1 y1 z1 ... xn yn zn``), ``features_command(exe,
+  surface, path, edge_size, angle, radius, distance, ...)`` is the command
+  line.  Polylines may meet only at their end points (CGAL 5.5 crashes
+  otherwise, CGAL #7356): split them at shared interior points before writing
+  (``write_polylines`` refuses a point shared with another polyline's
+  interior, the program too).  ``FEATURE_SURFACES`` (``box``, ``box_ball``)
+  are the surfaces with creases; ``cad_shapes.box_curves`` and
+  ``box_ball_curves`` are their curves.
+- ``mesh_3_polyhedron``: make_mesh_3 on
+  ``Polyhedral_mesh_domain_with_features_3`` of a closed triangle mesh (OFF,
+  ``write_off``) after ``detect_features(feature_angle)``:
+  ``polyhedron_command(exe, path, feature_angle, edge_size, angle, radius,
+  distance, ...)``.
+
+Both print, besides the usual keys, ``edge_size``, ``feature_vertices``
+(triangulation vertices on a curve or a corner, ``in_dimension <= 1``),
+``corner_vertices`` (``in_dimension == 0``), ``complex_edges``,
+``domain_curves`` and ``domain_corners``; ``mesh_3_features`` also
+``features`` (the file) and ``polylines`` (their number),
+``mesh_3_polyhedron`` ``input``, ``feature_angle`` and ``detect_seconds``
+(``detect_features`` alone; ``seconds`` includes it) with ``surface`` and
+``error_bound`` null and ``evaluations`` 0.  ``run_command(cmd, what,
+timeout)`` runs any of these command lines and parses the output.
 """
 
 from __future__ import annotations
@@ -68,12 +98,20 @@ __all__ = [
     "SURFACES",
     "CgalReferenceError",
     "build_reference",
+    "FEATURE_MESHERS",
+    "FEATURE_SURFACES",
     "delaunay_command",
+    "features_command",
     "image_command",
     "parse_reference_output",
+    "polyhedron_command",
+    "read_polylines",
     "reference_command",
+    "run_command",
     "run_reference",
+    "write_off",
     "write_points",
+    "write_polylines",
     "write_volume",
 ]
 
@@ -95,6 +133,14 @@ SURFACES = (
     "two_spheres",
     "blob_line",
 )
+
+#: The features modes (``features_command``, ``polyhedron_command``).
+FEATURE_MESHERS = ("mesh_3_features", "mesh_3_polyhedron")
+
+#: Surfaces with creases, for ``mesh_3_features`` (any mesher of SURFACES
+#: meshes them too): the cube ``max(|x|,|y|,|z|) - 1`` and its union with the
+#: ball of radius 0.8 about (1, 1, 1).
+FEATURE_SURFACES = ("box", "box_ball")
 
 #: How ``mesh_3_image`` finds its initial points.
 IMAGE_INITS = ("random", "components")
@@ -120,6 +166,8 @@ BOUNDING_SPHERES = {
     "tanglecube": ((1.25, 1.25, 1.25), 6.0),
     "two_spheres": ((1.05, 0.0, 0.0), 3.2),
     "blob_line": ((0.0, 0.0, 0.0), 2.0),
+    "box": ((0.0, 0.0, 0.0), 2.0),
+    "box_ball": ((0.2, 0.2, 0.2), 2.4),
 }
 
 # Keys every successful run prints.
@@ -268,7 +316,7 @@ def reference_command(
     """
     if mesher not in MESHERS:
         raise ValueError(f"unknown mesher {mesher!r}; expected one of {MESHERS}")
-    known = SURFACES + CLIPPED_SURFACES + BOX_SURFACES
+    known = SURFACES + FEATURE_SURFACES + CLIPPED_SURFACES + BOX_SURFACES
     if surface not in known:
         raise ValueError(f"unknown surface {surface!r}; expected one of {known}")
     if surface in CLIPPED_SURFACES and mesher != "surface_mesher_boundary":
@@ -370,6 +418,142 @@ def image_command(
     return cmd + _criteria_args(angle, radius, distance, error_bound, seed, out)
 
 
+def _points_of(polyline: Any, index: int) -> list[tuple[float, float, float]]:
+    """The points of one polyline as float triples, checked."""
+    pts = [tuple(float(c) for c in p) for p in polyline]
+    if any(len(p) != 3 for p in pts):
+        raise ValueError(f"polyline {index}: points need 3 coordinates")
+    if len(pts) < 2:
+        raise ValueError(f"polyline {index}: needs at least 2 points, got {len(pts)}")
+    if not all(math.isfinite(c) for p in pts for c in p):
+        raise ValueError(f"polyline {index}: a coordinate is not finite")
+    for i in range(1, len(pts)):
+        if pts[i] == pts[i - 1]:
+            raise ValueError(f"polyline {index}: points {i - 1} and {i} are equal")
+    return pts
+
+
+def write_polylines(path: PathLike, polylines: Any) -> None:
+    """Write polylines for ``mesh_3_features``: one per line, ``n x1 y1 z1 ...
+    xn yn zn`` (CGAL's polylines text format), 17 significant digits.
+
+    ``polylines``: a sequence of ``(m, 3)`` point sequences (``m >= 2``); a
+    closed loop repeats its first point last.  Polylines may meet only at
+    their end points (CGAL #7356): ValueError for a point that is also in the
+    interior of another polyline (or twice in one), two consecutive equal
+    points, fewer than 2 points or a non-finite coordinate.
+    """
+    checked = [_points_of(pl, i) for i, pl in enumerate(polylines)]
+    if not checked:
+        raise ValueError("no polylines")
+    where: dict[tuple[float, float, float], list[tuple[int, bool]]] = {}
+    for k, pts in enumerate(checked):
+        closed = pts[0] == pts[-1]
+        for i, p in enumerate(pts[:-1] if closed else pts):
+            where.setdefault(p, []).append((k, i == 0 or i == len(pts) - 1))
+    for p, uses in where.items():
+        if len(uses) > 1 and not all(end for _, end in uses):
+            ks = sorted({k for k, _ in uses})
+            raise ValueError(
+                f"polylines {ks} share the point {p}, which is interior to one of them: "
+                "polylines may meet only at their end points (CGAL #7356); split them there"
+            )
+    with open(path, "w") as fh:
+        for pts in checked:
+            fh.write(" ".join([str(len(pts))] + [repr(c) for p in pts for c in p]) + "\n")
+
+
+def read_polylines(path: PathLike) -> list[list[tuple[float, float, float]]]:
+    """The polylines of a file written by :func:`write_polylines`."""
+    out = []
+    with open(path) as fh:
+        for line in fh:
+            tok = line.split()
+            if not tok:
+                continue
+            n = int(tok[0])
+            if len(tok) != 1 + 3 * n:
+                raise ValueError(f"{path}: {len(tok) - 1} coordinates for {n} points")
+            xyz = [float(t) for t in tok[1:]]
+            out.append([tuple(xyz[i : i + 3]) for i in range(0, len(xyz), 3)])
+    return out
+
+
+def write_off(path: PathLike, vertices: Any, faces: Any) -> None:
+    """Write a triangle mesh as OFF (17 significant digits), what
+    ``mesh_3_polyhedron --input`` reads."""
+    verts = [tuple(float(c) for c in v) for v in vertices]
+    tris = [tuple(int(i) for i in f) for f in faces]
+    with open(path, "w") as fh:
+        fh.write(f"OFF\n{len(verts)} {len(tris)} 0\n")
+        for x, y, z in verts:
+            fh.write(f"{x!r} {y!r} {z!r}\n")
+        for a, b, c in tris:
+            fh.write(f"3 {a} {b} {c}\n")
+
+
+def features_command(
+    exe: PathLike,
+    surface: str,
+    features: PathLike,
+    edge_size: float,
+    angle: float,
+    radius: float,
+    distance: float,
+    error_bound: float | None = None,
+    *,
+    seed: int | None = None,
+    out: PathLike | None = None,
+) -> list[str]:
+    """The command meshing ``surface`` with ``mesh_3_features``: the polylines
+    of ``features`` (:func:`write_polylines`) protected with balls of radius at
+    most ``edge_size``.
+
+    Raises ValueError for an unknown surface or a non-finite number.
+    """
+    known = SURFACES + FEATURE_SURFACES
+    if surface not in known:
+        raise ValueError(f"unknown surface {surface!r}; expected one of {known}")
+    cmd = [
+        str(exe),
+        "--mesher", "mesh_3_features",
+        "--surface", surface,
+        "--features", str(features),
+        "--edge-size", _number("edge_size", edge_size),
+    ]  # fmt: skip
+    return cmd + _criteria_args(angle, radius, distance, error_bound, seed, out)
+
+
+def polyhedron_command(
+    exe: PathLike,
+    mesh: PathLike,
+    feature_angle: float,
+    edge_size: float,
+    angle: float,
+    radius: float,
+    distance: float,
+    *,
+    seed: int | None = None,
+    out: PathLike | None = None,
+) -> list[str]:
+    """The command remeshing the closed triangle mesh ``mesh`` (OFF,
+    :func:`write_off`) with ``mesh_3_polyhedron``: its edges whose normals
+    differ by ``feature_angle`` degrees or more protected (CGAL's
+    ``detect_features``).  There is no oracle error bound (exact AABB-tree
+    intersections).
+
+    Raises ValueError for a non-finite number.
+    """
+    cmd = [
+        str(exe),
+        "--mesher", "mesh_3_polyhedron",
+        "--input", str(mesh),
+        "--feature-angle", _number("feature_angle", feature_angle),
+        "--edge-size", _number("edge_size", edge_size),
+    ]  # fmt: skip
+    return cmd + _criteria_args(angle, radius, distance, None, seed, out)
+
+
 def parse_reference_output(
     returncode: int, stdout: str, stderr: str, what: str = "cgal_reference"
 ) -> dict[str, Any]:
@@ -408,6 +592,27 @@ def parse_reference_output(
     if stderr.strip():
         logger.debug("stderr of %s: %s", what, stderr.strip())
     return result
+
+
+def run_command(
+    cmd: Sequence[str], what: str = "cgal_reference", timeout: float | None = 3600.0
+) -> dict[str, Any]:
+    """Run one command line of the program (e.g. :func:`features_command`)
+    and return its JSON result; errors as :func:`run_reference`."""
+    logger.debug("run: %s", " ".join(cmd))
+    try:
+        proc = subprocess.run(
+            list(cmd), capture_output=True, text=True, timeout=timeout, check=False
+        )
+    except subprocess.TimeoutExpired as exc:
+        raise CgalReferenceError(
+            f"{what} timed out after {timeout} s",
+            stdout=exc.stdout if isinstance(exc.stdout, str) else "",
+            stderr=exc.stderr if isinstance(exc.stderr, str) else "",
+        ) from exc
+    except OSError as exc:
+        raise CgalReferenceError(f"cannot run {cmd[0]}: {exc}") from exc
+    return parse_reference_output(proc.returncode, proc.stdout, proc.stderr, what=what)
 
 
 def run_reference(

@@ -48,6 +48,38 @@
 // mesh_3D_gray_image_with_custom_initialization example), then refine_mesh_3;
 // both calls are timed.
 //
+// "mesh_3_features" is Mesh_3 with protected 1D features on a named surface:
+// make_mesh_3 on Mesh_domain_with_polyline_features_3<Labeled_mesh_domain_3>
+// (the implicit domain of "mesh_3") after add_features() with the polylines
+// of --features FILE, criteria edge_size (--edge-size), facet_angle,
+// facet_size, facet_distance (FACET_VERTICES_ON_SAME_SURFACE_PATCH), no cell
+// criterion, no params::manifold(), no perturb or exude.  FILE is CGAL's
+// polylines text format, one polyline per line: "n x1 y1 z1 ... xn yn zn"
+// (n >= 2; a closed loop repeats its first point last).  Polylines may meet
+// only at their end points: CGAL 5.5 crashes or fails on polylines that share
+// an interior point (CGAL #7356, #4814), so the caller splits them there; the
+// program refuses a point shared with another polyline's interior (exactly
+// equal coordinates) and consecutive equal points.  The surfaces "box"
+// (max(|x|,|y|,|z|) - 1) and "box_ball" (min(box, |p - (1,1,1)| - 0.8)) are
+// there for this mode (their creases are benchmarks/cad_shapes.py's
+// box_curves / box_ball_curves), but any surface of "mesh_3" is accepted.
+//
+// "mesh_3_polyhedron" remeshes a closed triangle mesh (--input MESH.off)
+// with Polyhedral_mesh_domain_with_features_3: detect_features(A) with
+// A = --feature-angle (CGAL's rule: an edge is sharp where the normals of its
+// two triangles differ by at least A degrees; sharp edges are chained into
+// curves split at corners), then make_mesh_3 with the criteria of
+// "mesh_3_features".  Reading the file is not timed; detect_features is
+// (its "seconds" also has "detect_seconds" on its own).  "evaluations" is 0.
+//
+// Both features modes output the complex facets between subdomain 1 (inside)
+// and 0, oriented outward, and add to the JSON line "edge_size",
+// "feature_vertices" (vertices of the triangulation with
+// c3t3.in_dimension(v) <= 1: on a curve or a corner), "corner_vertices"
+// (dimension 0), "complex_edges" (edges of the complex: the protected curves'
+// pieces), "domain_curves" and "domain_corners" (the domain's curves and
+// corners after add_features / detect_features).
+//
 // Usage:
 //   cgal_reference --mesher surface_mesher|surface_mesher_boundary|mesh_3|mesh_3_fast|mesh_3_box
 //                  --surface NAME
@@ -57,6 +89,12 @@
 //                  --spacing SX,SY,SZ [--origin OX,OY,OZ] --isovalue V
 //                  [--init random|components] --angle A --radius R --distance D
 //                  [--error-bound E] [--seed S] [--out mesh.off]
+//   cgal_reference --mesher mesh_3_features --surface NAME --features FILE
+//                  --edge-size L --angle A --radius R --distance D
+//                  [--error-bound E] [--seed S] [--out mesh.off]
+//   cgal_reference --mesher mesh_3_polyhedron --input MESH.off
+//                  --feature-angle FA --edge-size L --angle A --radius R
+//                  --distance D [--seed S] [--out mesh.off]
 //   cgal_reference --mesher delaunay --points FILE
 //
 // The "delaunay" mode is the floor of the benchmarks: it reads points (x y z
@@ -93,6 +131,13 @@
 #include <CGAL/facets_in_complex_3_to_triangle_mesh.h>
 #include <CGAL/make_mesh_3.h>
 
+// Mesh_3 with protected 1D features
+#include <CGAL/Mesh_domain_with_polyline_features_3.h>
+#include <CGAL/Mesh_polyhedron_3.h>
+#include <CGAL/Polyhedral_mesh_domain_with_features_3.h>
+#include <CGAL/boost/graph/IO/OFF.h>
+#include <boost/iterator/function_output_iterator.hpp>
+
 // Mesh_3 on a gray-level image (ImageIO is header-only in CGAL 5.x)
 #include <CGAL/ImageIO.h>
 #include <CGAL/Image_3.h>
@@ -116,6 +161,7 @@
 #include <iostream>
 #include <limits>
 #include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -189,6 +235,19 @@ double f_box_gyroid(double x, double y, double z) {
 
 double f_box_plane(double x, double y, double z) { return z - 0.2 - 0.5 * x - 0.2 * y; }
 
+// Surfaces with creases, for "mesh_3_features" (and any mode of "mesh_3"):
+// the cube [-1, 1]^3 and its union with the ball of radius 0.8 about
+// (1, 1, 1) (design note creases.md, section 1).  Their crease curves are in
+// benchmarks/cad_shapes.py.
+double f_box(double x, double y, double z) {
+  return std::max({std::abs(x), std::abs(y), std::abs(z)}) - 1.0;
+}
+
+double f_box_ball(double x, double y, double z) {
+  return std::min(f_box(x, y, z),
+                  std::sqrt(sq(x - 1.0) + sq(y - 1.0) + sq(z - 1.0)) - 0.8);
+}
+
 // Global evaluation counter.  The meshers run sequentially (no TBB, no
 // CGAL_CONCURRENT_MESH_3), so a plain integer is enough.
 std::uint64_t g_evaluations = 0;
@@ -258,6 +317,11 @@ const std::map<std::string, Surface_entry>& surfaces() {
       {"tanglecube", {f_tanglecube, counted<f_tanglecube>, {1.25, 1.25, 1.25}, 6.0}},
       {"two_spheres", {f_two_spheres, counted<f_two_spheres>, {1.05, 0.0, 0.0}, 3.2}},
       {"blob_line", {f_blob_line, counted<f_blob_line>, {0.0, 0.0, 0.0}, 2.0}},
+      // The cube reaches 1.74 from the origin.  box_ball reaches 2.19 from
+      // (0.2, 0.2, 0.2) (the ball's far point; the cube's corner (-1,-1,-1)
+      // is at 2.08), and the centre is inside the cube.
+      {"box", {f_box, counted<f_box>, {0.0, 0.0, 0.0}, 2.0}},
+      {"box_ball", {f_box_ball, counted<f_box_ball>, {0.2, 0.2, 0.2}, 2.4}},
       {"clipped_gyroid",
        {f_clipped_gyroid, counted<f_clipped_gyroid>, {0.0, 0.0, 0.0}, 2.0, true}},
       {"clipped_plane", {f_clipped_plane, counted<f_clipped_plane>, {0.0, 0.0, 0.0}, 1.0, true}},
@@ -319,6 +383,11 @@ struct Options {
   std::array<double, 3> origin{};
   double isovalue = std::numeric_limits<double>::quiet_NaN();
   std::string init;  // "random" or "components"
+  // meshers "mesh_3_features" and "mesh_3_polyhedron"
+  double edge_size = std::numeric_limits<double>::quiet_NaN();
+  std::string features;  // --features: polylines file
+  std::string input;     // --input: OFF triangle mesh
+  double feature_angle = std::numeric_limits<double>::quiet_NaN();
 };
 
 const char* const kUsage =
@@ -331,6 +400,12 @@ const char* const kUsage =
     "                      --spacing SX,SY,SZ [--origin OX,OY,OZ] --isovalue V\n"
     "                      [--init random|components] --angle A --radius R --distance D\n"
     "                      [--error-bound E] [--seed S] [--out mesh.off]\n"
+    "       cgal_reference --mesher mesh_3_features --surface NAME --features FILE\n"
+    "                      --edge-size L --angle A --radius R --distance D\n"
+    "                      [--error-bound E] [--seed S] [--out mesh.off]\n"
+    "       cgal_reference --mesher mesh_3_polyhedron --input MESH.off\n"
+    "                      --feature-angle FA --edge-size L --angle A --radius R\n"
+    "                      --distance D [--seed S] [--out mesh.off]\n"
     "       cgal_reference --mesher delaunay --points FILE\n"
     "  surface_mesher: make_surface_mesh with Manifold_tag;\n"
     "  surface_mesher_boundary: with Manifold_with_boundary_tag\n"
@@ -343,11 +418,18 @@ const char* const kUsage =
     "                samples); values > V inside, outside the box outside;\n"
     "                --init components: one seed per connected component of the\n"
     "                samples > V first (default random: make_mesh_3's own)\n"
+    "  mesh_3_features: make_mesh_3 (no manifold) on the implicit domain with the\n"
+    "                   polylines of FILE protected (one per line: n x1 y1 z1 ...\n"
+    "                   xn yn zn; polylines may meet only at their end points)\n"
+    "  mesh_3_polyhedron: make_mesh_3 (no manifold) on the closed triangle mesh\n"
+    "                     MESH.off with its sharp edges protected\n"
+    "                     (detect_features(FA): normals differ by FA or more)\n"
     "  delaunay: time Delaunay_triangulation_3(begin, end) of the points of FILE\n"
     "            (x y z per line)\n"
     "  NAME: sphere ellipsoid torus thin_torus double_torus tanglecube\n"
-    "        two_spheres blob_line; clipped by their sphere (surface_mesher_boundary\n"
-    "        only): clipped_gyroid clipped_plane clipped_cylinder clipped_half_torus;\n"
+    "        two_spheres blob_line box box_ball; clipped by their sphere\n"
+    "        (surface_mesher_boundary only): clipped_gyroid clipped_plane\n"
+    "        clipped_cylinder clipped_half_torus;\n"
     "        clipped by a box (mesh_3_box only): box_gyroid box_plane\n"
     "  A: minimum facet angle bound in degrees, 0 < A < 90 (CGAL guarantees\n"
     "     termination only for A <= 30)\n"
@@ -356,6 +438,8 @@ const char* const kUsage =
     "  E: relative error bound of the implicit-function oracle, 0 < E < 1\n"
     "     (default 1e-6)\n"
     "  S: seed of CGAL's random generators (default 0)\n"
+    "  L: edge_size, the largest protecting ball radius on the curves > 0\n"
+    "  FA: feature angle in degrees, 0 < FA <= 180\n"
     "Prints one JSON object on stdout.  Exit code 2 on a bad command line,\n"
     "1 on any other failure.\n";
 
@@ -434,10 +518,39 @@ void check_image_options(const Options& o, bool have_dims, bool have_spacing,
   if (std::isnan(o.isovalue)) throw Usage_error{"--isovalue is required"};
 }
 
+// The features options: --edge-size for both features modes, --features for
+// mesh_3_features, --input and --feature-angle for mesh_3_polyhedron; refused
+// by the other modes.
+void check_feature_options(const Options& o) {
+  const bool features = o.mesher == "mesh_3_features";
+  const bool polyhedron = o.mesher == "mesh_3_polyhedron";
+  if (!features && !polyhedron) {
+    if (!std::isnan(o.edge_size) || !o.features.empty() || !o.input.empty() ||
+        !std::isnan(o.feature_angle))
+      throw Usage_error{
+          "--edge-size, --features, --input and --feature-angle are only for --mesher "
+          "mesh_3_features or mesh_3_polyhedron"};
+    return;
+  }
+  if (std::isnan(o.edge_size)) throw Usage_error{"--edge-size is required"};
+  if (features) {
+    if (o.features.empty()) throw Usage_error{"--features is required"};
+    if (!o.input.empty() || !std::isnan(o.feature_angle))
+      throw Usage_error{"--input and --feature-angle are only for --mesher mesh_3_polyhedron"};
+    return;
+  }
+  if (!o.surface.empty())
+    throw Usage_error{"--mesher mesh_3_polyhedron takes --input, not --surface"};
+  if (!o.features.empty()) throw Usage_error{"--features is only for --mesher mesh_3_features"};
+  if (o.input.empty()) throw Usage_error{"--input is required"};
+  if (std::isnan(o.feature_angle)) throw Usage_error{"--feature-angle is required"};
+}
+
 Options parse_args(int argc, char** argv) {
   Options o;
   bool have_angle = false, have_radius = false, have_distance = false;
   bool have_dims = false, have_spacing = false, have_origin = false;
+  bool have_error_bound = false;
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
     std::string value;
@@ -452,7 +565,9 @@ Options parse_args(int argc, char** argv) {
     static const char* const known[] = {"--mesher", "--surface",     "--angle", "--radius",
                                         "--distance", "--error-bound", "--seed", "--out",
                                         "--points", "--image", "--dims", "--spacing",
-                                        "--origin", "--isovalue", "--init"};
+                                        "--origin", "--isovalue", "--init",
+                                        "--edge-size", "--features", "--input",
+                                        "--feature-angle"};
     bool is_known = false;
     for (const char* k : known) is_known = is_known || arg == k;
     if (!is_known) throw Usage_error{"unknown argument: '" + std::string(argv[i]) + "'"};
@@ -463,10 +578,12 @@ Options parse_args(int argc, char** argv) {
     if (arg == "--mesher") {
       if (value != "surface_mesher" && value != "surface_mesher_boundary" &&
           value != "mesh_3" && value != "mesh_3_fast" && value != "mesh_3_box" &&
-          value != "mesh_3_image" && value != "delaunay")
+          value != "mesh_3_image" && value != "mesh_3_features" &&
+          value != "mesh_3_polyhedron" && value != "delaunay")
         throw Usage_error{"unknown mesher '" + value +
                           "' (surface_mesher, surface_mesher_boundary, mesh_3, mesh_3_fast,"
-                          " mesh_3_box, mesh_3_image or delaunay)"};
+                          " mesh_3_box, mesh_3_image, mesh_3_features, mesh_3_polyhedron"
+                          " or delaunay)"};
       o.mesher = value;
     } else if (arg == "--surface") {
       if (surfaces().count(value) == 0) throw Usage_error{"unknown surface '" + value + "'"};
@@ -488,6 +605,7 @@ Options parse_args(int argc, char** argv) {
       o.error_bound = parse_double(arg, value);
       if (!(o.error_bound > 0.0 && o.error_bound < 1.0))
         throw Usage_error{"--error-bound must be in (0, 1)"};
+      have_error_bound = true;
     } else if (arg == "--seed") {
       o.seed = parse_seed(arg, value);
     } else if (arg == "--out") {
@@ -516,6 +634,19 @@ Options parse_args(int argc, char** argv) {
       if (value != "random" && value != "components")
         throw Usage_error{"--init must be random or components"};
       o.init = value;
+    } else if (arg == "--edge-size") {
+      o.edge_size = parse_double(arg, value);
+      if (!(o.edge_size > 0.0)) throw Usage_error{"--edge-size must be > 0"};
+    } else if (arg == "--features") {
+      if (value.empty()) throw Usage_error{"--features needs a file name"};
+      o.features = value;
+    } else if (arg == "--input") {
+      if (value.empty()) throw Usage_error{"--input needs a file name"};
+      o.input = value;
+    } else if (arg == "--feature-angle") {
+      o.feature_angle = parse_double(arg, value);
+      if (!(o.feature_angle > 0.0 && o.feature_angle <= 180.0))
+        throw Usage_error{"--feature-angle must be in (0, 180] degrees"};
     }
   }
   if (o.mesher.empty()) throw Usage_error{"--mesher is required"};
@@ -525,13 +656,19 @@ Options parse_args(int argc, char** argv) {
   }
   if (!o.points.empty()) throw Usage_error{"--points is only for --mesher delaunay"};
   check_image_options(o, have_dims, have_spacing, have_origin);
-  if (o.surface.empty() && o.mesher != "mesh_3_image")
+  check_feature_options(o);
+  if (o.surface.empty() && o.mesher != "mesh_3_image" && o.mesher != "mesh_3_polyhedron")
     throw Usage_error{"--surface is required"};
   if (!have_angle) throw Usage_error{"--angle is required"};
   if (!have_radius) throw Usage_error{"--radius is required"};
   if (!have_distance) throw Usage_error{"--distance is required"};
   if (o.mesher == "mesh_3_image") {
     if (o.init.empty()) o.init = "random";
+    return o;
+  }
+  if (o.mesher == "mesh_3_polyhedron") {
+    // The polyhedral domain intersects exactly (AABB tree): no oracle error.
+    if (have_error_bound) throw Usage_error{"--mesher mesh_3_polyhedron takes no --error-bound"};
     return o;
   }
   const Surface_entry& s = surfaces().at(o.surface);
@@ -753,6 +890,8 @@ struct Input_error {
   std::string message;
 };
 
+std::string json_double(double v);
+
 // Points of a text file, x y z per point, whitespace-separated.
 std::vector<Point_3> read_points(const std::string& path) {
   std::ifstream is(path);
@@ -780,6 +919,216 @@ std::vector<Point_3> read_points(const std::string& path) {
   pts.reserve(xyz.size() / 3);
   for (std::size_t i = 0; i < xyz.size(); i += 3) pts.emplace_back(xyz[i], xyz[i + 1], xyz[i + 2]);
   return pts;
+}
+
+// ---------------------------------------------------------------------------
+// Mesh_3 with protected 1D features
+// ---------------------------------------------------------------------------
+
+using Polyline = std::vector<Point_3>;
+
+// The polylines of a --features file: one per non-blank line,
+// "n x1 y1 z1 ... xn yn zn" (CGAL's polylines text format, as its examples
+// read it, but one per line so that errors name the line).  Refused: a count
+// below 2 or not matching the line, a token that is not a finite number, two
+// consecutive equal points (a zero-length segment: CGAL's protection needs
+// positive lengths, cf. CGAL #4814 "minimal_size_ > 0 || sq_d > 0"), a point
+// equal to a point in another polyline's interior or twice in one polyline's
+// interior (polylines may meet only at their end points, CGAL #7356).  A
+// closed loop repeats its first point last.
+std::vector<Polyline> read_polylines(const std::string& path) {
+  std::ifstream is(path);
+  if (!is) throw Input_error{"cannot open polylines file '" + path + "'"};
+  std::vector<Polyline> polylines;
+  std::vector<std::size_t> line_of;  // each polyline's line number
+  std::string line;
+  std::size_t lineno = 0;
+  while (std::getline(is, line)) {
+    ++lineno;
+    std::istringstream ls(line);
+    std::vector<std::string> tokens;
+    for (std::string t; ls >> t;) tokens.push_back(t);
+    if (tokens.empty()) continue;
+    const std::string where = "'" + path + "' line " + std::to_string(lineno);
+    const char* s = tokens[0].c_str();
+    char* end = nullptr;
+    errno = 0;
+    const unsigned long n = std::strtoul(s, &end, 10);
+    if (tokens[0][0] == '-' || end == s || *end != '\0' || errno == ERANGE)
+      throw Input_error{where + ": the point count '" + tokens[0] + "' is not an integer"};
+    if (n < 2) throw Input_error{where + ": a polyline needs at least 2 points"};
+    if (tokens.size() != 1 + 3 * n)
+      throw Input_error{where + ": " + std::to_string(tokens.size() - 1) +
+                        " coordinates for " + std::to_string(n) + " points"};
+    Polyline pl;
+    pl.reserve(n);
+    double xyz[3];
+    for (std::size_t i = 1; i < tokens.size(); ++i) {
+      const char* t = tokens[i].c_str();
+      errno = 0;
+      const double v = std::strtod(t, &end);
+      if (end == t || *end != '\0' || errno == ERANGE || !std::isfinite(v))
+        throw Input_error{where + ": not a finite number: '" + tokens[i] + "'"};
+      xyz[(i - 1) % 3] = v;
+      if ((i - 1) % 3 == 2) {
+        pl.emplace_back(xyz[0], xyz[1], xyz[2]);
+        if (pl.size() > 1 && pl[pl.size() - 2] == pl.back())
+          throw Input_error{where + ": points " + std::to_string(pl.size() - 1) + " and " +
+                            std::to_string(pl.size()) + " are equal (a zero-length segment)"};
+      }
+    }
+    if (n == 2 && pl.front() == pl.back())
+      throw Input_error{where + ": a closed polyline needs at least 3 points"};
+    polylines.push_back(std::move(pl));
+    line_of.push_back(lineno);
+  }
+  if (is.bad()) throw Input_error{"cannot read polylines file '" + path + "'"};
+  if (polylines.empty()) throw Input_error{"'" + path + "' holds no polyline"};
+  // Where each point occurs: (polyline, is an end point).  A closed loop's
+  // last point is its first and is counted once.
+  std::map<Point_3, std::vector<std::pair<std::size_t, bool>>> seen;
+  for (std::size_t k = 0; k < polylines.size(); ++k) {
+    const Polyline& pl = polylines[k];
+    const bool closed = pl.front() == pl.back();
+    const std::size_t m = closed ? pl.size() - 1 : pl.size();
+    for (std::size_t i = 0; i < m; ++i)
+      seen[pl[i]].emplace_back(k, i == 0 || i + 1 == pl.size());
+  }
+  for (const auto& [p, where] : seen) {
+    if (where.size() < 2) continue;
+    for (const auto& [k, is_end] : where)
+      if (!is_end)
+        throw Input_error{"'" + path + "' line " + std::to_string(line_of[k]) +
+                          ": the polyline has the interior point (" + json_double(p.x()) +
+                          ", " + json_double(p.y()) + ", " + json_double(p.z()) +
+                          ") that another polyline, or itself, also has: polylines may meet "
+                          "only at end points (CGAL #7356); split them there"};
+  }
+  return polylines;
+}
+
+// The features modes' criteria: edge_size on the protected curves, facet
+// criteria as the other Mesh_3 modes, no cell criterion (cell_size and
+// cell_radius_edge_ratio left at 0 = ignored: only the surface is refined).
+template <typename Criteria>
+Criteria feature_criteria(const Options& o) {
+  namespace params = CGAL::parameters;
+  return Criteria(params::edge_size = o.edge_size, params::facet_angle = o.angle,
+                  params::facet_size = o.radius, params::facet_distance = o.distance,
+                  params::facet_topology = CGAL::FACET_VERTICES_ON_SAME_SURFACE_PATCH);
+}
+
+// What the features modes add to the JSON line.
+struct Feature_counts {
+  std::size_t feature_vertices = 0;  // in_dimension <= 1
+  std::size_t corner_vertices = 0;   // in_dimension == 0
+  std::size_t complex_edges = 0;
+  std::size_t domain_curves = 0;
+  std::size_t domain_corners = 0;
+  double detect_seconds = std::numeric_limits<double>::quiet_NaN();
+};
+
+template <typename C3t3>
+void count_feature_vertices(const C3t3& c3t3, Feature_counts& counts) {
+  const auto& tr = c3t3.triangulation();
+  for (auto v = tr.finite_vertices_begin(); v != tr.finite_vertices_end(); ++v) {
+    const int d = c3t3.in_dimension(v);
+    if (d == 0) ++counts.corner_vertices;
+    if (d == 0 || d == 1) ++counts.feature_vertices;
+  }
+  counts.complex_edges = c3t3.number_of_edges_in_complex();
+}
+
+template <typename Domain>
+void count_domain_features(const Domain& domain, Feature_counts& counts) {
+  std::size_t curves = 0, corners = 0;
+  domain.get_curves(boost::make_function_output_iterator([&](const auto&) { ++curves; }));
+  domain.get_corners(boost::make_function_output_iterator([&](const auto&) { ++corners; }));
+  counts.domain_curves = curves;
+  counts.domain_corners = corners;
+}
+
+double run_mesh_3_features(const Options& o, const Surface_entry& s,
+                           const std::vector<Polyline>& polylines, Mesh& mesh, CGAL::Random& rng,
+                           Feature_counts& counts) {
+  using Mesh_domain = CGAL::Mesh_domain_with_polyline_features_3<CGAL::Labeled_mesh_domain_3<K>>;
+  using Tr = CGAL::Mesh_triangulation_3<Mesh_domain, CGAL::Default, CGAL::Sequential_tag>::type;
+  using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr, Mesh_domain::Corner_index,
+                                                       Mesh_domain::Curve_index>;
+  using Mesh_criteria = CGAL::Mesh_criteria_3<Tr>;
+  namespace params = CGAL::parameters;
+
+  const Point_3 centre(s.centre[0], s.centre[1], s.centre[2]);
+  // As "mesh_3": the sphere's bounding box, the error bound relative to half
+  // its diagonal.
+  Mesh_domain domain = Mesh_domain::create_implicit_mesh_domain(
+      s.counted, K::Sphere_3(centre, s.radius * s.radius),
+      params::relative_error_bound = o.error_bound, params::p_rng = &rng);
+  domain.add_features(polylines.begin(), polylines.end());
+  count_domain_features(domain, counts);
+
+  const auto criteria = feature_criteria<Mesh_criteria>(o);
+
+  g_evaluations = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  // params::features() is make_mesh_3's default for a domain with features.
+  C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria, params::no_perturb(), params::no_exude());
+  const auto t1 = std::chrono::steady_clock::now();
+
+  count_feature_vertices(c3t3, counts);
+  facets_between_to_mesh(c3t3, 1, 0, mesh);
+  return std::chrono::duration<double>(t1 - t0).count();
+}
+
+double run_mesh_3_polyhedron(const Options& o, Mesh& mesh, CGAL::Random& rng,
+                             Feature_counts& counts) {
+  using Polyhedron = CGAL::Mesh_polyhedron_3<K>::type;
+  using Mesh_domain = CGAL::Polyhedral_mesh_domain_with_features_3<K>;
+  using Tr = CGAL::Mesh_triangulation_3<Mesh_domain, CGAL::Default, CGAL::Sequential_tag>::type;
+  using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr, Mesh_domain::Corner_index,
+                                                       Mesh_domain::Curve_index>;
+  using Mesh_criteria = CGAL::Mesh_criteria_3<Tr>;
+  namespace params = CGAL::parameters;
+
+  Polyhedron poly;
+  {
+    std::ifstream is(o.input);
+    if (!is) throw Input_error{"cannot open mesh file '" + o.input + "'"};
+    if (!CGAL::IO::read_OFF(is, poly) || poly.empty())
+      throw Input_error{"'" + o.input + "' is not an OFF polygon mesh CGAL can read " +
+                        "(a non-manifold or badly oriented input fails here)"};
+  }
+  if (!CGAL::is_triangle_mesh(poly))
+    throw Input_error{"'" + o.input + "' is not a triangle mesh"};
+  if (!CGAL::is_closed(poly)) throw Input_error{"'" + o.input + "' is not closed"};
+
+  Mesh_domain domain(poly, &rng);
+  const auto t0 = std::chrono::steady_clock::now();
+  domain.detect_features(o.feature_angle);
+  const auto t1 = std::chrono::steady_clock::now();
+  count_domain_features(domain, counts);
+
+  const auto criteria = feature_criteria<Mesh_criteria>(o);
+  C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria, params::no_perturb(), params::no_exude());
+  const auto t2 = std::chrono::steady_clock::now();
+
+  count_feature_vertices(c3t3, counts);
+  facets_between_to_mesh(c3t3, 1, 0, mesh);
+  counts.detect_seconds = std::chrono::duration<double>(t1 - t0).count();
+  return std::chrono::duration<double>(t2 - t0).count();
+}
+
+std::string feature_fields(const Options& o, const Feature_counts& c) {
+  std::string out = ", \"edge_size\": " + json_double(o.edge_size);
+  if (o.mesher == "mesh_3_polyhedron")
+    out += ", \"feature_angle\": " + json_double(o.feature_angle) +
+           ", \"detect_seconds\": " + json_double(c.detect_seconds);
+  out += ", \"feature_vertices\": " + std::to_string(c.feature_vertices) +
+         ", \"corner_vertices\": " + std::to_string(c.corner_vertices) +
+         ", \"complex_edges\": " + std::to_string(c.complex_edges) +
+         ", \"domain_curves\": " + std::to_string(c.domain_curves) +
+         ", \"domain_corners\": " + std::to_string(c.domain_corners);
+  return out;
 }
 
 // ---------------------------------------------------------------------------
@@ -917,6 +1266,24 @@ std::string json_double(double v) {
   return std::string(buf, res.ptr);
 }
 
+// A string as the inside of a JSON string literal.
+std::string json_escape(const std::string& text) {
+  std::string out;
+  for (const char ch : text) {
+    if (ch == '"' || ch == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (static_cast<unsigned char>(ch) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(ch));
+      out += buf;
+    } else {
+      out += ch;
+    }
+  }
+  return out;
+}
+
 template <typename T>
 std::string json_triple(const std::array<T, 3>& a) {
   return "[" + json_double(double(a[0])) + ", " + json_double(double(a[1])) + ", " +
@@ -1005,6 +1372,10 @@ int main(int argc, char** argv) {
       seconds = run_mesh_3_image(o, image, mesh, mesh_3_rng);
       shift_mesh(mesh, o.origin);
       input = image_fields(o);
+    } else if (o.mesher == "mesh_3_polyhedron") {
+      Feature_counts counts;
+      seconds = run_mesh_3_polyhedron(o, mesh, mesh_3_rng, counts);
+      input = ", \"input\": \"" + json_escape(o.input) + "\"" + feature_fields(o, counts);
     } else {
       const Surface_entry& s = surfaces().at(o.surface);
       const std::string bad = s.clipped || s.boxed ? std::string() : check_bounding_sphere(s);
@@ -1015,7 +1386,14 @@ int main(int argc, char** argv) {
       }
       const bool sm = o.mesher == "surface_mesher" || o.mesher == "surface_mesher_boundary";
       input = surface_fields(s);
-      if (o.mesher == "mesh_3_box") {
+      if (o.mesher == "mesh_3_features") {
+        const std::vector<Polyline> polylines = read_polylines(o.features);
+        Feature_counts counts;
+        seconds = run_mesh_3_features(o, s, polylines, mesh, mesh_3_rng, counts);
+        input += ", \"features\": \"" + json_escape(o.features) +
+                 "\", \"polylines\": " + std::to_string(polylines.size()) +
+                 feature_fields(o, counts);
+      } else if (o.mesher == "mesh_3_box") {
         std::size_t complex_facets = 0;
         seconds = run_mesh_3_box(o, s, mesh, mesh_3_rng, complex_facets);
         input += ", \"complex_facets\": " + std::to_string(complex_facets);
@@ -1059,7 +1437,8 @@ int main(int argc, char** argv) {
               << ", \"angle\": " << json_double(o.angle)
               << ", \"radius\": " << json_double(o.radius)
               << ", \"distance\": " << json_double(o.distance)
-              << ", \"error_bound\": " << json_double(o.error_bound)
+              << ", \"error_bound\": "
+              << (o.mesher == "mesh_3_polyhedron" ? "null" : json_double(o.error_bound))
               << ", \"seed\": " << o.seed
               << ", \"closed\": " << (closed ? "true" : "false")
               << ", \"components\": " << components
