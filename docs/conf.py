@@ -59,14 +59,13 @@ sphinx_gallery_conf = {
     "filename_pattern": r"/plot_",  # run every plot_*.py during the build
     "ignore_pattern": r"__init__\.py",
     # Pictures come from SurfaceMesh.render (PNG files), plus any pyplot figure.
-    "image_scrapers": ("matplotlib", "rdmesh_scraper.png_scraper"),
+    "image_scrapers": ("matplotlib", "rdmesh_gallery.png_scraper"),
     "download_all_examples": False,
     "remove_config_comments": True,
-    "within_subsection_order": "FileNameSortKey",
+    "within_subsection_order": "rdmesh_gallery.ExampleOrder",
     "show_memory": False,
     "abort_on_example_error": True,
     "only_warn_on_example_error": False,
-    "plot_gallery": "True",
 }
 
 # -- HTML ---------------------------------------------------------------------

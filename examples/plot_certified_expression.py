@@ -3,10 +3,15 @@ A certified expression: a sphere and a speck
 ============================================
 
 A surface written as an expression can be *certified*: interval arithmetic
-proves every topological-ball test, and refinement goes on until the proofs
-hold. Here a unit sphere has a companion sphere of radius 0.02, 1 % of the
-bounding radius, that a grid scan of 64 cells would step over.
+proves that every component got a seed, that every Voronoi edge crosses the
+surface as the restricted facets say, and that no Voronoi facet holds a loop
+and no cell a silhouette point; refinement goes on until the proofs hold. Here
+a unit sphere has a companion sphere of radius 0.02, 1 % of the bounding
+radius: smaller than a cell of the 64-cell seeding grid, which is not certain
+to find it.
 """
+
+import textwrap
 
 import rdmesh
 
@@ -24,14 +29,15 @@ print(m.summary())
 print("components:", m.topology()["components"], " certified:", m.topology_certified)
 
 # %%
-# The report gives each test its level: ``proven`` by interval arithmetic here,
-# where a plain numpy function would get ``sampled``.
+# The report gives each test its level: ``proven`` here (by interval arithmetic,
+# or by an exact test on the output), where a plain numpy function would get
+# ``sampled`` for the tests it checks on samples.
 
 for name, test in m.report["tests"].items():
     print(f"{name:14s} held={test['held']!s:5s} level={test['level']}")
 print("seeding:", m.report["seeding"]["level"])
 print()
-print(m.report["statement"])
+print(textwrap.fill(m.report["statement"], 88))
 
 # %%
 # The statement ends with a cross-check of the seeds: the critical points of a

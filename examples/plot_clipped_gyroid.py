@@ -29,8 +29,8 @@ print(mesh.topology())
 print("manifold with boundary:", mesh.is_manifold_with_boundary())
 
 # %%
-# Every boundary vertex lies on a face of the box (its face coordinate is set to
-# the face's value):
+# Boundary vertices are placed on the box faces (their face coordinate is set to
+# the face's value), so their distance to the box surface is exactly 0:
 
 box = np.array([(-4.0, -4.0, -4.0), (4.0, 4.0, 4.0)])
 gap = np.minimum(mesh.vertices - box[0], box[1] - mesh.vertices).min(axis=1)

@@ -1,4 +1,5 @@
-"""A sphinx-gallery image scraper for the PNG files an example writes.
+"""The gallery's helpers: an image scraper for the PNG files an example writes,
+and the order of the examples.
 
 The gallery's examples draw with rdmesh's own renderer,
 ``mesh.render("name.png")``, which writes a file instead of opening a pyplot
@@ -32,3 +33,29 @@ def png_scraper(block, block_vars, gallery_conf, **kwargs):
 
 def _get_sg_image_scraper():
     return png_scraper
+
+
+#: The gallery's order: from the first mesh to the batch. Examples not listed
+#: come after these, by file name.
+ORDER = (
+    "plot_torus.py",
+    "plot_certified_expression.py",
+    "plot_volume_marching_cubes.py",
+    "plot_remesh.py",
+    "plot_clipped_gyroid.py",
+    "plot_batch.py",
+)
+
+
+class ExampleOrder:
+    """sphinx-gallery's ``within_subsection_order``: :data:`ORDER`, then by name."""
+
+    def __init__(self, src_dir: str) -> None:
+        self.src_dir = src_dir
+
+    def __call__(self, filename: str) -> tuple[int, str]:
+        rank = ORDER.index(filename) if filename in ORDER else len(ORDER)
+        return rank, filename
+
+    def __repr__(self) -> str:
+        return f"<{self.__class__.__name__}: {', '.join(ORDER)}>"
