@@ -79,3 +79,17 @@ html_theme_options = {
     "footer_end": ["sphinx-version"],
 }
 html_show_sourcelink = False
+# Pages without sub-pages need no left sidebar (it would be empty).
+html_sidebars = {
+    page: []
+    for page in (
+        "index",
+        "install",
+        "quickstart",
+        "guarantees",
+        "api",
+        "how-it-works",
+        "performance",
+        "contributing",
+    )
+}
