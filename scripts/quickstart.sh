@@ -6,6 +6,7 @@
 #   bash scripts/quickstart.sh demo    # mesh a built-in surface, write mesh + picture
 #   bash scripts/quickstart.sh test    # run the test suite
 #   bash scripts/quickstart.sh bench   # run the benchmark against CGAL
+#   bash scripts/quickstart.sh docs    # build the documentation site into docs/_build/html
 #
 # Environment: RDMESH_VENV (default .venv), PYTHON (default python3).
 set -euo pipefail
@@ -18,8 +19,12 @@ python="${PYTHON:-python3}"
 
 say() { printf 'quickstart: %s\n' "$*" >&2; }
 
-# 1. System packages (CGAL 5.5 headers, a C++ compiler, CMake, Python venv).
+# 1. System packages (CGAL 5.5 headers, a C++ compiler, CMake, Python venv; for
+#    the documentation, graphviz's `dot` draws the pipeline diagram).
 packages=(g++ cmake make libcgal-dev libgmp-dev libmpfr-dev python3-venv python3-dev)
+if [[ "$job" == docs ]]; then
+  packages+=(graphviz)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -51,6 +56,21 @@ if [[ ! -f "$stamp" || "$(cat "$stamp")" != "$hash" ]] || ! "$venv/bin/python" -
   echo "$hash" >"$stamp"
 fi
 
+# 3b. The documentation's packages (the `docs` extra of pyproject.toml), installed
+#     on their own so that rdmesh is not rebuilt for them; again only when the
+#     list changed or one is missing.
+if [[ "$job" == docs ]]; then
+  mapfile -t docs_requirements < <("$venv/bin/python" -c 'import tomllib; print("\n".join(tomllib.load(open("pyproject.toml", "rb"))["project"]["optional-dependencies"]["docs"]))')
+  docs_stamp="$venv/.rdmesh-docs-hash"
+  docs_hash=$(printf '%s\n' "${docs_requirements[@]}" | sha256sum | cut -d' ' -f1)
+  if [[ ! -f "$docs_stamp" || "$(cat "$docs_stamp")" != "$docs_hash" ]] ||
+    ! "$venv/bin/python" -c "import sphinx, pydata_sphinx_theme, numpydoc, sphinx_gallery, myst_parser, skimage, matplotlib" 2>/dev/null; then
+    say "installing the documentation's packages: ${docs_requirements[*]}"
+    "${pip[@]}" install "${docs_requirements[@]}"
+    echo "$docs_hash" >"$docs_stamp"
+  fi
+fi
+
 # 4. The job.
 case "$job" in
   demo)
@@ -62,8 +82,14 @@ case "$job" in
   bench)
     exec "$venv/bin/python" benchmarks/bench_vs_cgal.py "$@"
     ;;
+  docs)
+    # -E re-reads every page, so that -W sees the warnings of unchanged pages
+    # too; the gallery reruns only the examples that changed.
+    say "building the documentation into docs/_build/html (warnings are errors)"
+    exec "$venv/bin/python" -m sphinx -E -W --keep-going -b html docs docs/_build/html "$@"
+    ;;
   *)
-    say "unknown job '$job' (use demo, test or bench)"
+    say "unknown job '$job' (use demo, test, bench or docs)"
     exit 2
     ;;
 esac

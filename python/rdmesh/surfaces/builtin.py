@@ -44,7 +44,7 @@ def ellipsoid(a: float = 1.5, b: float = 1.0, c: float = 0.5) -> ImplicitSurface
 
 
 def torus(major: float = 1.0, minor: float = 0.4, bound: float | None = None) -> ImplicitSurface:
-    """Torus about the z axis: (|p|^2 + R^2 - r^2)^2 - 4 R^2 (x^2 + y^2)."""
+    """Torus about the z axis: ``(|p|^2 + R^2 - r^2)^2 - 4 R^2 (x^2 + y^2)``."""
     R2, r2 = major**2, minor**2
 
     def f(p):
