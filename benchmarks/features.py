@@ -335,6 +335,54 @@ def run_cgal_polyhedron(case: Case, work: Path, timeout: float) -> MeshRun:
     return _cgal_result(cmd, out, f"mesh_3_polyhedron on {case.name}", timeout)
 
 
+def _rdmesh_run(surface, case: Case, features: bool) -> MeshRun:
+    import time
+
+    import rdmesh
+
+    t0 = time.perf_counter()
+    try:
+        m = rdmesh.mesh_surface(
+            surface,
+            angle_bound=case.angle,
+            radius_bound=case.radius,
+            distance_bound=case.distance,
+            edge_size=case.edge_size if features else None,
+            seed=case.seed,
+        )
+    except rdmesh.BudgetExceeded as exc:
+        m = exc.mesh
+    seconds = time.perf_counter() - t0
+    info = {"complete": m.complete, "stats_seconds": m.stats.get("seconds")}
+    if m.features is not None:
+        info["features"] = m.features.as_report()
+    return MeshRun(m.vertices, m.faces, seconds, info)
+
+
+@register("rdmesh", kinds=("implicit", "mesh"), label="rdmesh, curves protected")
+def run_rdmesh(case: Case, work: Path, timeout: float) -> MeshRun:
+    import rdmesh
+
+    if case.kind == "implicit":
+        s = rdmesh.ImplicitSurface(case.f, case.bounding_sphere, features=case.polylines)
+    else:
+        s = rdmesh.MeshSurface(
+            (case.shape.vertices, case.shape.faces), feature_angle=case.feature_angle
+        )
+    return _rdmesh_run(s, case, True)
+
+
+@register("rdmesh_plain", kinds=("implicit", "mesh"), label="rdmesh, nothing protected")
+def run_rdmesh_plain(case: Case, work: Path, timeout: float) -> MeshRun:
+    import rdmesh
+
+    if case.kind == "implicit":
+        s = rdmesh.ImplicitSurface(case.f, case.bounding_sphere, features="none")
+    else:
+        s = rdmesh.MeshSurface((case.shape.vertices, case.shape.faces), feature_angle=None)
+    return _rdmesh_run(s, case, False)
+
+
 # ---------------------------------------------------------------------------
 # Measuring
 # ---------------------------------------------------------------------------

@@ -29,6 +29,7 @@ def mesh_surface(
     progress: bool | Callable[[dict], None] = False,
     workers: int = 1,
     certify: bool | None = None,
+    edge_size: float | Sizing | None = None,
 ) -> SurfaceMesh:
     """Mesh an implicit surface by restricted Delaunay refinement.
 
@@ -115,6 +116,18 @@ def mesh_surface(
         run); True for a surface that is not an expression raises
         ValueError. The report gives each test's level (``proven`` or
         ``sampled``).
+    edge_size : float or callable, optional
+        Largest length of the mesh edges along feature curves (CGAL's
+        ``edge_size``): the spacing of the protecting balls' centres, whose
+        radii are 0.9 times their smaller spacing. A number or a sizing
+        field. Default (None): the radius bound. Feature curves (creases,
+        sharp edges, clip boundaries: ``ImplicitSurface(features=...)``)
+        are protected by balls centred on them (:mod:`rdmesh.features`),
+        each consecutive pair of centres kept a mesh edge, every corner a
+        vertex; next to the balls the angle, size and distance criteria are
+        relaxed as in CGAL's Mesh_3 (``SurfaceMesh.features`` says what
+        held). Boissonnat-Oudot only: "topological-ball" and ``certify``
+        refuse given feature curves.
 
     Returns
     -------
@@ -194,6 +207,14 @@ def mesh_surface(
             "certify=True is not available with topology='manifold-with-boundary': the "
             "proofs assume a closed surface strictly inside the bounding sphere"
         )
+    given = isinstance(surface.features, list) and len(surface.features) > 0
+    if given and (method != "boissonnat-oudot" or certify):
+        raise ValueError(
+            "feature curves (features=) need method='boissonnat-oudot' without certify: the "
+            "topological-ball tests and the proofs assume a smooth surface"
+        )
+    if edge_size is not None and not callable(edge_size):
+        edge_size = positive("edge_size", edge_size)
     budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
     if progress is not True and progress is not False and not callable(progress):
         raise ValueError(f"progress must be True, False or a callable, got {progress!r}")
@@ -208,6 +229,7 @@ def mesh_surface(
         progress=progress if callable(progress) else None,
         workers=workers,
         certify=bool(certify),
+        edge_size=edge_size,
     )
     if progress is True:
         from .progress import ProgressBar

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..features.check import MeshFeatures
 from ..refine.criteria import min_angles
 from ..topology.complex import complex_status, component_topology
 
@@ -27,7 +28,8 @@ class SurfaceMesh:
         Triangles, oriented outward (normals point towards ``f > 0``).
     facet_centres : (M, 3) float64
         Centre of each face's surface Delaunay ball: where its dual Voronoi
-        edge meets the surface. The ball radius is the distance to any vertex.
+        edge meets the surface. The ball radius is the distance to any vertex
+        (the power distance ``sqrt(d^2 - w)`` to a protecting ball's centre).
     stats : dict
         Run statistics: ``seconds``, ``rounds``, ``vertices``, ``faces``,
         ``evaluations`` (points at which ``f`` was evaluated), ``inserted`` per
@@ -84,6 +86,19 @@ class SurfaceMesh:
             as seeds and whether their Morse count matches the mesh.
         ``statement``
             What is certified and what rests on sampling, in words.
+        ``features``
+            With protected feature curves: how many curves, corners and
+            balls, and the feature check (``held``, ``edges_kept`` of
+            ``edges``, ``corners_kept``, where it ``failed``); None without.
+    features : MeshFeatures or None
+        The protected feature curves (creases, sharp edges, clip boundaries)
+        as mesh vertex indices in order, the corners, and the outcome of the
+        feature check (:class:`rdmesh.features.MeshFeatures`); None when
+        nothing was protected.
+    weights : (N,) float64 or None
+        Each vertex's weight: a protecting ball's radius squared (ball
+        centres are vertices on the feature curves), 0 for the other
+        vertices; None when nothing was protected.
     """
 
     vertices: np.ndarray
@@ -93,6 +108,8 @@ class SurfaceMesh:
     complete: bool = True
     unresolved: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     report: dict[str, Any] = field(default_factory=dict)
+    features: MeshFeatures | None = None
+    weights: np.ndarray | None = None
 
     @classmethod
     def from_facets(
@@ -132,7 +149,11 @@ class SurfaceMesh:
     @property
     def ball_radii(self) -> np.ndarray:
         """Radius of each face's surface Delaunay ball, ``(M,)``."""
-        return np.linalg.norm(self.facet_centres - self.vertices[self.faces[:, 0]], axis=1)
+        d = self.facet_centres - self.vertices[self.faces[:, 0]]
+        r2 = np.einsum("ij,ij->i", d, d)
+        if self.weights is not None:
+            r2 = np.maximum(r2 - self.weights[self.faces[:, 0]], 0.0)
+        return np.sqrt(r2)
 
     @property
     def angles(self) -> np.ndarray:
@@ -238,6 +259,14 @@ class SurfaceMesh:
             f"{self.stats.get('rounds', 0)} rounds, "
             f"{self.stats.get('evaluations', 0)} evaluations of f",
         ]
+        if self.features is not None:
+            f = self.features
+            lines.append(
+                f"features: {len(f.curves)} curves, {len(f.corners)} corners kept"
+                if f.held
+                else f"features: {len(f.curves)} curves, {len(f.corners)} corners; NOT all kept "
+                f"({f.edges_kept} of {f.edges} curve edges, {f.corners_kept} corners)"
+            )
         if not self.complete:
             lines.append("INCOMPLETE: " + str(self.stats.get("stop_reason", "budget")))
         if len(self.unresolved):

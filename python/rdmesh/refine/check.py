@@ -34,9 +34,17 @@ def check_restricted(snap: Snapshot) -> None:
     radii = snap.radii(0)
     # The facet's own three vertices lie on its ball (up to the root
     # tolerance); the fourth nearest sample is the first that may not.
+    # With protecting balls: by power, over the samples nearest in distance
+    # and every ball that could reach the centre.
     k = min(4, len(snap.vertices))
     d, idx = snap.tree.query(centres, k=k)
     d, idx = d.reshape(len(tri), k), idx.reshape(len(tri), k)
+    w = snap.weights
+    if w is not None:
+        balls = np.flatnonzero(w > 0)
+        idx = np.concatenate([idx, np.broadcast_to(balls, (len(tri), len(balls)))], axis=1)
+        diff = centres[:, None, :] - snap.vertices[idx]
+        d = np.sqrt(np.maximum(np.einsum("ijk,ijk->ij", diff, diff) - w[idx], 0.0))
     own = (idx[:, :, None] == tri[:, None, :]).any(axis=2)
     d = np.where(own, np.inf, d)
     j = np.argmin(d, axis=1)

@@ -93,6 +93,7 @@ class FacetCriteria:
         centres: np.ndarray,
         radii: np.ndarray,
         angle_exempt: np.ndarray | None = None,
+        weights: np.ndarray | None = None,
     ) -> np.ndarray:
         """Which facets fail a criterion.
 
@@ -100,10 +101,16 @@ class FacetCriteria:
         ----------
         corners : (k, 3, 3) facet vertex coordinates.
         centres : (k, 3) surface centres.
-        radii : (k,) surface Delaunay ball radii.
+        radii : (k,) surface Delaunay ball radii (power radii).
         angle_exempt : (k,) bool, optional
-            Facets the angle bound does not apply to (on a clipped surface,
-            those with two or three vertices on the bounding sphere).
+            Facets the angle bound does not apply to (on a clipped surface
+            without protecting balls, those with two or three vertices on the
+            bounding sphere).
+        weights : (k, 3) float, optional
+            The weights of the facet's vertices (protecting balls: radius
+            squared; samples: 0). Facets next to balls get Mesh_3's
+            relaxation (:func:`relaxed`); the distance is measured from the
+            weighted circumcentre.
 
         Returns
         -------
@@ -112,18 +119,127 @@ class FacetCriteria:
         bad = np.zeros(len(corners), dtype=bool)
         if len(corners) == 0:
             return bad
+        skip = None
+        if weights is not None and np.any(weights > 0):
+            skip = relaxed(corners, weights)
         if self.angle_bound > 0:
             skinny = sin2_min_angle(corners) < math.sin(math.radians(self.angle_bound)) ** 2
             if angle_exempt is not None:
                 skinny &= ~angle_exempt
+            if skip is not None:
+                # Next to a ball: a lower bound, held while the facet's ball is
+                # not small against the protecting ball (so refinement there
+                # ends: each point is that far from every vertex).
+                floor = min(self.angle_bound, RELAXED_ANGLE)
+                thin = sin2_min_angle(corners) < math.sin(math.radians(floor)) ** 2
+                big = radii >= RELAXED_FLOOR * np.sqrt(weights.max(axis=1))
+                skinny &= ~skip.angle | (thin & big)
             bad |= skinny
         psi = self.sizing(centres)
         if psi is not None:
-            bad |= radii > psi
+            large = radii > psi
+            bad |= large if skip is None else large & ~skip.size
         if self.distance_bound is not None:
-            d = np.linalg.norm(circumcentres(corners) - centres, axis=1)
-            bad |= d > self.distance_bound
+            cc = circumcentres(corners) if skip is None else weighted_circumcentres(corners, weights)
+            far = np.linalg.norm(cc - centres, axis=1) > self.distance_bound
+            bad |= far if skip is None else far & ~skip.distance
+        if skip is not None:
+            bad &= ~skip.never
         return bad
+
+
+@dataclass(frozen=True)
+class Relaxed:
+    """Which criteria a facet next to protecting balls is spared (each (k,) bool)."""
+
+    distance: np.ndarray
+    angle: np.ndarray
+    size: np.ndarray
+    #: Three balls that share a point: the facet is never refined.
+    never: np.ndarray
+
+
+#: Mesh_3's thresholds (``Facet_criterion_visitor_with_features``): a facet
+#: with one weighted vertex (or two whose balls meet) is spared the distance,
+#: angle and size criteria while the squared radius of the smallest sphere
+#: orthogonal to its ball and another vertex, over the ball's weight, is below
+#: these.
+RELAX_DISTANCE, RELAX_ANGLE, RELAX_SIZE = 0.1**2 * 4, 0.5**2 * 4, 0.4**2 * 4
+#: Where Mesh_3 drops the angle bound next to a ball, rdmesh keeps this one
+#: (degrees) for facets whose surface ball is at least RELAXED_FLOOR times the
+#: largest protecting ball among their vertices.
+RELAXED_ANGLE, RELAXED_FLOOR = 20.0, 0.25
+
+
+def relaxed(corners: np.ndarray, weights: np.ndarray) -> Relaxed:
+    """Mesh_3's relaxation of the facet criteria next to protecting balls.
+
+    Parameters
+    ----------
+    corners : (k, 3, 3) facet vertices.
+    weights : (k, 3) their weights.
+    """
+    k = len(corners)
+    w = np.asarray(weights, dtype=np.float64)
+    heavy = w > 0
+    n = heavy.sum(axis=1)
+    # The weighted vertices first (stable: the order among them is kept).
+    order = np.argsort(~heavy, axis=1, kind="stable")
+    rows = np.arange(k)[:, None]
+    p, wp = corners[rows, order], w[rows, order]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r12 = _orthogonal_sq_radius(p[:, 0], wp[:, 0], p[:, 1], wp[:, 1])
+        r13 = _orthogonal_sq_radius(p[:, 0], wp[:, 0], p[:, 2], wp[:, 2])
+        r23 = _orthogonal_sq_radius(p[:, 1], wp[:, 1], p[:, 2], wp[:, 2])
+        one = np.maximum(r12, r13) / wp[:, 0]
+        two = np.maximum(r13 / wp[:, 0], r23 / wp[:, 1])
+    ratio = np.where(n == 1, one, np.where(n == 2, two, np.inf))
+    ratio = np.where(np.isfinite(ratio), ratio, np.inf)
+    meet = np.zeros(k, bool)
+    meet[n == 2] = r12[n == 2] <= 0
+    three = n == 3
+    if three.any():
+        meet[three] = _orthogonal_sq_radius3(p[three], wp[three]) <= 0
+    applies = (n == 1) | ((n == 2) & meet)
+    return Relaxed(
+        distance=applies & (ratio < RELAX_DISTANCE),
+        angle=applies & (ratio < RELAX_ANGLE),
+        size=applies & (ratio < RELAX_SIZE),
+        never=three & meet,
+    )
+
+
+def _orthogonal_sq_radius(p, wp, q, wq) -> np.ndarray:
+    """Squared radius of the smallest sphere orthogonal to two weighted points
+    (row-wise): negative when their balls overlap."""
+    d2 = np.einsum("ij,ij->i", q - p, q - p)
+    return (d2 + wp - wq) ** 2 / (4.0 * d2) - wp
+
+
+def _orthogonal_sq_radius3(p: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Squared radius of the smallest sphere orthogonal to three weighted
+    points ``(k, 3, 3)``, weights ``(k, 3)``: negative when their balls share a point."""
+    x = weighted_circumcentres(p, w)
+    d = x - p[:, 0]
+    return np.einsum("ij,ij->i", d, d) - w[:, 0]
+
+
+def weighted_circumcentres(corners: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The point of each triangle's plane with equal power to its three
+    weighted vertices, ``(k, 3, 3), (k, 3) -> (k, 3)`` (the circumcentre when
+    the weights are 0)."""
+    a = corners[:, 0]
+    u, v = corners[:, 1] - a, corners[:, 2] - a
+    bu = 0.5 * (np.einsum("ij,ij->i", u, u) - (weights[:, 1] - weights[:, 0]))
+    bv = 0.5 * (np.einsum("ij,ij->i", v, v) - (weights[:, 2] - weights[:, 0]))
+    uu = np.einsum("ij,ij->i", u, u)
+    vv = np.einsum("ij,ij->i", v, v)
+    uv = np.einsum("ij,ij->i", u, v)
+    det = uu * vv - uv * uv
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (bu * vv - bv * uv) / det
+        t = (bv * uu - bu * uv) / det
+    return a + s[:, None] * u + t[:, None] * v
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

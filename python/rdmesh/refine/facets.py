@@ -85,6 +85,7 @@ def evaluate_facets(
     rho: np.ndarray,
     end_values: np.ndarray | None = None,
     samples: DualSamples | None = None,
+    apex_weight: np.ndarray | None = None,
 ) -> FacetEval:
     """Find the crossings of each facet's dual segment.
 
@@ -99,6 +100,9 @@ def evaluate_facets(
         shared Voronoi vertices once, so ``f`` is evaluated once per vertex).
     samples : DualSamples, optional
         The segments' samples, when the core made them already.
+    apex_weight : (k,) float, optional
+        The apex's weight (a protecting ball's radius squared): the ball
+        radius is then the power radius ``sqrt(|x - apex|^2 - w)``.
 
     Returns
     -------
@@ -146,7 +150,12 @@ def evaluate_facets(
     pick = pick_order[last]
     rows = segment[pick]
     out.centre[rows] = cr.point[pick]
-    out.radius[rows] = np.linalg.norm(cr.point[pick] - apex[rows], axis=1)
+    if apex_weight is None:
+        out.radius[rows] = np.linalg.norm(cr.point[pick] - apex[rows], axis=1)
+    else:
+        d = cr.point[pick] - apex[rows]
+        r2 = np.einsum("ij,ij->i", d, d) - apex_weight[rows]
+        out.radius[rows] = np.sqrt(np.maximum(r2, 0.0))
     out.outward[rows] = cr.rising[pick]
     g = surface.grad(cr.point[pick])
     # hypot: squaring underflows below 1e-154 and overflows above 1e154, which

@@ -30,6 +30,7 @@ from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
 from ..topology.regions import describe_regions, regions
+from ..features.check import check_features
 from .check import check_restricted
 from .criteria import FacetCriteria
 from .floor import SpacingFloor
@@ -86,8 +87,10 @@ class Mesher:
         progress: Callable[[dict], None] | None = None,
         workers: int = 1,
         certify: bool = False,
+        edge_size: float | Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> None:
         self.surface = surface
+        self.edge_size = edge_size
         self.criteria = criteria
         self.method = method
         self.topology = topology
@@ -111,6 +114,9 @@ class Mesher:
             self.rdt, surface, criteria, workers, self.timer, clipped=self.clipped
         )
         self.rounds = 0
+        #: Times the feature check failed and the run began again with smaller balls.
+        self.repairs = 0
+        self.ball_ids = np.zeros(0, np.int64)
         self.unresolved: list[np.ndarray] = []
         self._snap: Snapshot | None = None
         self.stalled = False
@@ -126,8 +132,9 @@ class Mesher:
         with self.timer("seeding"):
             plan = METHODS[self.method](
                 self.surface, self.criteria, self.topology, rng, self.seed_resolution,
-                self.certify,
+                self.certify, edge_size=self.edge_size,
             )  # fmt: skip
+        self.plan = plan
         seeds, stop = plan.seeds, None
         cap = self.budget.max_vertices
         if cap is not None and len(seeds) > cap:
@@ -135,6 +142,11 @@ class Mesher:
         interrupted = False
         try:
             try:
+                if plan.balls is not None:
+                    # Balls first: they must not hide a vertex (the core refuses).
+                    self._insert(plan.balls.centres, "protect", plan.balls.weights)
+                    self.ball_ids = self.samples.last_ids
+                    self.pipeline.protected = True
                 self._insert(seeds, "seeds")
                 stop = self._loop(plan, t0, stop)
                 if not self.clipped:
@@ -153,7 +165,12 @@ class Mesher:
         """Refinement rounds until nothing is left to refine or a budget runs out."""
         floor = SpacingFloor(self.criteria, self.surface.radius, plan.topology_floor)
         place = None
-        if self.clipped and plan.boundary is not None and len(plan.boundary.points):
+        if (
+            self.clipped
+            and plan.balls is None
+            and plan.boundary is not None
+            and len(plan.boundary.points)
+        ):
             curve, sizing = plan.boundary, boundary_sizing(self.surface, self.criteria)
 
             def place(found: Candidates, snap: Snapshot) -> tuple[Candidates, np.ndarray]:
@@ -166,7 +183,7 @@ class Mesher:
         cycle_start, last_batch = t0, max(len(self.vertices), 1)
         while stop is None:
             self.rounds += 1
-            self.pipeline.update(self.vertices)
+            self.pipeline.update(self.vertices, self.weights)
             # No local reference: the snapshot's arrays and trees go with the
             # next insertion, before the next round's peak.
             if self.check:
@@ -201,7 +218,7 @@ class Mesher:
             if self.progress is not None:
                 self.progress(_progress(self.rounds, found.stage, len(batch), self.vertices, t0))
         if stop:
-            self.pipeline.update(self.vertices)
+            self.pipeline.update(self.vertices, self.weights)
         return stop
 
     @property
@@ -209,14 +226,21 @@ class Mesher:
         """The samples, indexed by the core's vertex ids."""
         return self.samples.points
 
-    def _insert(self, points: np.ndarray, stage: str) -> int:
+    @property
+    def weights(self) -> np.ndarray | None:
+        """The vertices' weights when some are protecting balls, else None."""
+        return self.samples.weights if self.samples.weighted else None
+
+    def _insert(self, points: np.ndarray, stage: str, weights: np.ndarray | None = None) -> int:
         self._snap = None
         with self.timer("insert"):
-            return self.samples.insert(points, stage)
+            return self.samples.insert(points, stage, weights)
 
     def snapshot(self) -> Snapshot:
         if self._snap is None:
-            self._snap = Snapshot(self.surface, self.rdt, self.vertices, self.memo, self.proofs)
+            self._snap = Snapshot(
+                self.surface, self.rdt, self.vertices, self.memo, self.proofs, self.weights
+            )
         return self._snap
 
 
@@ -227,7 +251,7 @@ def _restart_round(m: Mesher) -> None:
     m.samples.reload()
     m.rdt.restart_round()
     m._snap = None
-    m.pipeline.update(m.vertices)
+    m.pipeline.update(m.vertices, m.weights)
 
 
 def _no_progress(stage: str, n: int) -> str:
@@ -285,6 +309,13 @@ def _result(
     tri, centres, _ = snap.facets(0)
     unresolved = np.concatenate(m.unresolved) if m.unresolved else np.zeros((0, 3))
     mesh = SurfaceMesh.from_facets(m.vertices, tri, centres, unresolved)
+    if plan.balls is not None:
+        ids = np.unique(tri)
+        mesh.weights = m.samples.weights[ids]
+        mesh.features = check_features(
+            plan.balls, plan.features, m.ball_ids, ids, mesh.faces, len(mesh.vertices)
+        )
+        mesh.features.repairs = m.repairs
     report_interrupted = False
     try:
         with m.timer("report"):
@@ -305,6 +336,7 @@ def _result(
                 boundary=plan.boundary if m.clipped else None,
                 quick=bool(stop and stop.startswith("time_limit")),
             )
+        mesh.report["features"] = None if mesh.features is None else mesh.features.as_report()
     except KeyboardInterrupt:
         # The mesh is whole; only the report is missing.
         report_interrupted = True
@@ -342,6 +374,14 @@ def _result(
     if stop:
         mesh.complete = False
         mesh.stats["stop_reason"] = stop
+    elif mesh.features is not None and not mesh.features.held:
+        mesh.complete = False
+        f = mesh.features
+        mesh.stats["stop_reason"] = (
+            f"feature check failed: {f.edges - f.edges_kept} of {f.edges} curve edges and "
+            f"{len(f.corners) - f.corners_kept} corners not kept (SurfaceMesh.features.failed)"
+        )
+        log.warning("%s", mesh.stats["stop_reason"])
     elif len(mesh.unresolved):
         mesh.complete = False
         mesh.stats["stop_reason"] = (

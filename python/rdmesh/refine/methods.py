@@ -29,8 +29,12 @@ from ..sampling.domain import clip_box, depth, on_clip_surface
 from ..sampling.grid import GridScan, fibonacci_sphere, grid_scan
 from ..sampling.probes import Probes, surface_probes
 from ..surfaces.oracle import ImplicitSurface
+from ..surfaces.volume import VolumeSurface
 from ..topology.tests import CELL_NORMAL_ANGLE, PROBE_TARGET, TESTS
-from .criteria import FacetCriteria
+from ..features import Balls, FeatureGraph, protect
+from ..features.sources import check_on_surface, feature_graph
+from ..sampling.probes import unit_normals
+from .criteria import FacetCriteria, Sizing
 from .stages import FacetStage, Stage, TestStage
 
 log = logging.getLogger("rdmesh")
@@ -65,6 +69,9 @@ class Plan:
     discovery: Discovery | None = None
     #: The sampled curve where the surface leaves the ball (manifold-with-boundary).
     boundary: BoundaryCurve | None = None
+    #: The feature curves, and their protecting balls (inserted before the seeds).
+    features: FeatureGraph | None = None
+    balls: Balls | None = None
 
 
 def boissonnat_oudot(
@@ -74,29 +81,53 @@ def boissonnat_oudot(
     rng: np.random.Generator,
     resolution: int,
     certify: bool = False,
+    edge_size: float | Sizing | None = None,
 ) -> Plan:
     """Seeds from the grid scan (and, to certify, from the interval subdivision);
     stages as CGAL's Surface_mesher with its manifold tags.
 
     With ``topology="manifold-with-boundary"`` the surface may leave the ball
     (or the surface's clip box): the curve where it meets the sphere (the box
-    faces) is sampled first
-    (:mod:`rdmesh.sampling.boundary`) and its points are the first seeds.
+    faces) is traced first (:mod:`rdmesh.sampling.boundary`). Feature curves
+    (that curve, given ones, a closed volume's box) get protecting balls
+    (:mod:`rdmesh.features`), inserted before the seeds; with
+    ``features="none"`` the boundary curve's samples are the first seeds
+    instead, and refinement points near it are moved onto it.
     """
     spacing = criteria.radius_bound if isinstance(criteria.radius_bound, float) else None
     clipped = topology == "manifold-with-boundary"
     scan, found = _scan(surface, rng, resolution, spacing, certify, clipped)
+    protecting = surface.features != "none"
     boundary = None
     if clipped:
         size = _boundary_spacing(surface, criteria)
         field = criteria.sizing if callable(criteria.radius_bound) else None
         boundary = boundary_curve(surface, size, criteria.distance_bound, resolution, field)
-        if len(boundary.points):
+        if len(boundary.points) and not protecting:
             # Seeds in the band along the clipping surface could be boundary vertices.
             inner = scan.seeds[depth(surface, scan.seeds) >= SEED_BAND * size]
             seeds = np.concatenate([boundary.points, _away(inner, boundary.points, 0.5 * size)])
             scan = GridScan(seeds, scan.crossings, scan.spacing)
-    soft = _angle_only_at_boundary(surface, criteria) if clipped else None
+    graph, balls = None, None
+    if protecting:
+        graph = feature_graph(
+            surface, boundary=boundary if clipped else None,
+            volume_curve=_volume_box_curve(surface, criteria, resolution),
+        )  # fmt: skip
+        if not graph.empty:
+            check_on_surface(surface, graph.curves)
+            size = _edge_sizing(surface, criteria, edge_size)
+            sheets = (scan.crossings, unit_normals(surface, scan.crossings))
+            balls = protect(graph, size, surface.radius, sheets)
+            # A seed in a ball would be hidden, or a vertex next to a curve.
+            scan = GridScan(scan.seeds[~balls.inside(scan.seeds, SEED_CLEARANCE)],
+                            scan.crossings, scan.spacing)  # fmt: skip
+            log.info(
+                "features: %d curves, %d corners, %d protecting balls (radii %.3g to %.3g)",
+                len(graph.curves), len(graph.corners), len(balls), balls.radii.min(),
+                balls.radii.max(),
+            )  # fmt: skip
+    soft = _angle_only_at_boundary(surface, criteria) if clipped and balls is None else None
     stages: list[Stage] = [FacetStage("facet", core.BAD | core.TOPO, "unless-bad", soft)]
     if topology != "non-manifold":
         allow = topology == "manifold-with-boundary"
@@ -114,7 +145,41 @@ def boissonnat_oudot(
         report_probes=lambda: Probes.on(surface, scan.crossings, scan.spacing),
         discovery=found,
         boundary=boundary,
+        features=graph,
+        balls=balls,
     )
+
+
+#: Seeds closer to a protecting ball than this, times its radius, are dropped.
+SEED_CLEARANCE = 1.2
+
+
+def _edge_sizing(
+    surface: ImplicitSurface, criteria: FacetCriteria, edge_size: float | Sizing | None
+) -> Sizing:
+    """The largest spacing of protecting balls along the curves: ``edge_size``
+    (a number or a sizing field), by default the radius bound (or its field;
+    a twentieth of R without one)."""
+    if edge_size is None:
+        if criteria.radius_bound is None:
+            return lambda x: np.full(len(x), surface.radius / 20.0)
+        return criteria.sizing
+    if callable(edge_size):
+        return FacetCriteria(0.0, edge_size).sizing
+    return lambda x: np.full(len(x), float(edge_size))
+
+
+def _volume_box_curve(surface: ImplicitSurface, criteria: FacetCriteria, resolution: int):
+    """For a volume closed by its box: the curve where its isosurface meets the
+    box, traced on the box (None otherwise)."""
+    if not isinstance(surface, VolumeSurface) or surface.border != "closed":
+        return None
+    clipped = ImplicitSurface(
+        surface.f_volume, surface.bounding_sphere, gradient=surface._volume_gradient,
+        clip_box=surface.box,
+    )  # fmt: skip
+    size = _boundary_spacing(clipped, criteria)
+    return boundary_curve(clipped, size, criteria.distance_bound, resolution)
 
 
 def topological_ball(
@@ -124,10 +189,13 @@ def topological_ball(
     rng: np.random.Generator,
     resolution: int,
     certify: bool = False,
+    edge_size: float | Sizing | None = None,
 ) -> Plan:
     """Seeds from the grid scan (to certify, from the interval subdivision
     instead) plus the critical points of a random height; the
-    topological-ball tests, then the criteria while keeping them."""
+    topological-ball tests, then the criteria while keeping them. Feature
+    curves are not protected (the tests assume a smooth surface;
+    :func:`rdmesh.mesh_surface` refuses given curves with this method)."""
     R = surface.radius
     bound = criteria.radius_bound
     spacing = bound if isinstance(bound, float) else None

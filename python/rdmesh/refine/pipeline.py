@@ -57,6 +57,7 @@ class FacetPipeline:
         workers: int,
         timer: PhaseTimer,
         clipped: bool = False,
+        protected: bool = False,
     ) -> None:
         self.rdt = rdt
         self.surface = surface
@@ -65,20 +66,27 @@ class FacetPipeline:
         self.timer = timer
         #: The surface may leave the ball: no check at the sphere.
         self.clipped = clipped
+        #: Protecting balls keep the boundary (if any): no angle exemption there.
+        self.protected = protected
         #: The local size bound at the boundary (the angle bound's floor there).
-        self.boundary_sizing = boundary_sizing(surface, criteria) if clipped else None
+        self.boundary_sizing = (
+            boundary_sizing(surface, criteria) if clipped and not protected else None
+        )
         #: Facets evaluated so far.
         self.evaluated = 0
+        self._weights: np.ndarray | None = None
         #: Dual segments whose root search failed (never used as surface points).
         self.failed = 0
         self._worker = ThreadPoolExecutor(1, thread_name_prefix="rdmesh-core")
 
-    def update(self, vertices: np.ndarray) -> None:
+    def update(self, vertices: np.ndarray, weights: np.ndarray | None = None) -> None:
         """Evaluate every facet whose dual changed since the last update.
 
-        ``vertices`` are the samples, indexed by the core's vertex ids. On any
+        ``vertices`` are the samples, indexed by the core's vertex ids, and
+        ``weights`` their weights when some are protecting balls. On any
         exception the core's pending jobs are settled before it propagates.
         """
+        self._weights = weights
         try:
             self._update(vertices)
         except BaseException:
@@ -152,15 +160,17 @@ class FacetPipeline:
 
         def work(sl: slice) -> None:
             t = tri[sl]
+            w = self._weights
             ev = evaluate_facets(
-                self.surface, vertices[t[:, 0]], seg[sl], rho[sl], end_f[sl], samples.take(sl)
-            )
+                self.surface, vertices[t[:, 0]], seg[sl], rho[sl], end_f[sl], samples.take(sl),
+                None if w is None else w[t[:, 0]],
+            )  # fmt: skip
             failed.append(ev.failed)
             r = ev.restricted
             bad = np.zeros(len(t), bool)
             corners = vertices[t[r]]
             exempt = None
-            if self.clipped:
+            if self.clipped and not self.protected:
                 # Facets with an edge on the boundary curve (two vertices on
                 # the clipping surface, the sphere or the clip box) are held
                 # to the angle bound down to a floor of ball radius.
@@ -168,7 +178,9 @@ class FacetPipeline:
                 if exempt.any():
                     psi = self.boundary_sizing(ev.centre[r][exempt])
                     exempt[exempt] = ev.radius[r][exempt] <= BOUNDARY_ANGLE_FLOOR * psi
-            bad[r] = self.criteria.bad(corners, ev.centre[r], ev.radius[r], exempt)
+            bad[r] = self.criteria.bad(
+                corners, ev.centre[r], ev.radius[r], exempt, None if w is None else w[t[r]]
+            )
             topo = r & ((ev.n_cross >= 2) | ev.tangential)
             flags[sl] = (
                 (r * core.RESTRICTED)

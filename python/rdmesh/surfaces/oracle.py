@@ -5,6 +5,7 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -49,6 +50,18 @@ class ImplicitSurface:
         surface; other topologies, ``method="topological-ball"`` and
         ``certify=True`` raise ValueError). Default None: no box, the
         bounding ball only.
+    features : list of (m, 3) array_like, or "none", optional
+        Feature curves to keep in the mesh (creases, sharp edges), each a
+        polyline of points on the surface in order along the curve; a curve
+        whose last point repeats its first is a closed loop. Curves may meet
+        only at their end points (those are the corners); an end point on
+        another curve's interior splits that curve there. The mesh then has
+        a vertex at every corner and its edges follow each curve (protecting
+        balls centred on the polyline: :mod:`rdmesh.features`). Curves the
+        domain makes (where a ``clip_box`` or the bounding sphere cuts the
+        surface, the box of a closed volume, a mesh's sharp edges) are
+        protected as well. Default None: only those; "none": nothing is
+        protected (clip boundaries are then snapped, creases chamfered).
 
     Attributes
     ----------
@@ -68,6 +81,11 @@ class ImplicitSurface:
         ``clip_box`` that is not a ``(2, 3)`` array of finite numbers with
         ``lo < hi`` on every axis, or that reaches outside the bounding
         sphere (the message names which).
+    rdmesh.FeatureError
+        (a ValueError) a feature polyline that is not an ``(m, 3)`` array of
+        finite numbers, has fewer than two distinct points, or crosses
+        another curve (or itself) away from the end points; the message names
+        the polyline (``features[i]``).
 
     Notes
     -----
@@ -99,6 +117,7 @@ class ImplicitSurface:
     gradient: ArrayFunction | None = None
     name: str = "implicit surface"
     clip_box: ArrayLike | None = None
+    features: Any = None
     evaluations: int = field(default=0, init=False)
 
     def __post_init__(self) -> None:
@@ -111,6 +130,7 @@ class ImplicitSurface:
         self.bounding_sphere = (self.centre, self.radius)
         if self.clip_box is not None:
             self.clip_box = box_in_sphere(self.clip_box, self.centre, self.radius, self.name)
+        self.features = _features(self.features, self.radius)
 
     @classmethod
     def from_expression(
@@ -120,6 +140,7 @@ class ImplicitSurface:
         name: str | None = None,
         *,
         clip_box: ArrayLike | None = None,
+        features: Any = None,
     ) -> ImplicitSurface:
         """The surface ``text = 0`` for an arithmetic expression in x, y and z.
 
@@ -138,6 +159,8 @@ class ImplicitSurface:
             highest corner), which must lie inside the bounding sphere; see
             :class:`ImplicitSurface`. The mesh then has a boundary on the
             box faces and nothing is certified for it.
+        features : list of (m, 3) array_like, or "none", optional
+            Feature curves to keep (see :class:`ImplicitSurface`).
 
         Returns
         -------
@@ -162,8 +185,9 @@ class ImplicitSurface:
             return expr.gradient(points, step=step)
 
         return cls(
-            expr, (centre, radius), gradient=gradient, name=name or expr.text, clip_box=clip_box
-        )
+            expr, (centre, radius), gradient=gradient, name=name or expr.text, clip_box=clip_box,
+            features=features,
+        )  # fmt: skip
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """Evaluate ``f`` on ``(N, 3)`` points; returns ``(N,)`` float64."""
@@ -223,3 +247,22 @@ class ImplicitSurface:
         )
         v = self(probe.reshape(-1, 3)).reshape(2, 3, n)
         return ((v[0] - v[1]) / (2 * h)).T
+
+
+def _features(features: Any, radius: float) -> list[np.ndarray] | str:
+    """The checked ``features=``: "none", or the polylines (an empty list for
+    None or "auto"); the curves are built once here so that crossings are
+    refused when the surface is made."""
+    if features is None or (isinstance(features, str) and features == "auto"):
+        return []
+    if isinstance(features, str):
+        if features == "none":
+            return "none"
+        raise ValueError(
+            f"features must be a list of (m, 3) polylines, None or 'none', got {features!r}"
+        )
+    from ..features.graph import as_polylines, build_graph, given_curves
+
+    polylines = as_polylines(features)
+    build_graph(given_curves(polylines, radius), radius)
+    return polylines

@@ -52,6 +52,8 @@ class Snapshot:
         Facets the loop test found clean in earlier rounds (kept across rounds).
     proofs : ProofMemo, optional
         Facets and cells the proven tests found clean in earlier rounds.
+    weights : (n,) float, optional
+        The vertices' weights (protecting balls); ball radii are then power radii.
     """
 
     def __init__(
@@ -61,10 +63,13 @@ class Snapshot:
         vertices: np.ndarray,
         memo: LoopMemo | None = None,
         proofs: ProofMemo | None = None,
+        weights: np.ndarray | None = None,
     ) -> None:
         self.surface = surface
         self.rdt = rdt
         self.vertices = vertices
+        #: The vertices' weights when some are protecting balls, else None.
+        self.weights = weights
         self.memo = memo if memo is not None else LoopMemo()
         self.proofs = proofs
         self._facets: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -81,7 +86,11 @@ class Snapshot:
         """Surface Delaunay ball radii of :meth:`facets` ``(mask)``."""
         if mask not in self._radii:
             tri, centres, _ = self.facets(mask)
-            self._radii[mask] = np.linalg.norm(centres - self.vertices[tri[:, 0]], axis=1)
+            d = centres - self.vertices[tri[:, 0]]
+            r2 = np.einsum("ij,ij->i", d, d)
+            if self.weights is not None:
+                r2 = np.maximum(r2 - self.weights[tri[:, 0]], 0.0)
+            self._radii[mask] = np.sqrt(r2)
         return self._radii[mask]
 
     @cached_property
@@ -163,7 +172,7 @@ class Snapshot:
         if kind == "proven_silhouette":
             return self.cell_proof.violations
         if kind == "isolated":
-            return isolated_test(self.surface, self.vertices, tri, self.tree)
+            return isolated_test(self.surface, self.vertices, tri, self.tree, self.weights)
         if kind == "silhouette":
             if probes is None:
                 return None

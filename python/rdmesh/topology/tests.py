@@ -132,18 +132,28 @@ def isolated_samples(tri: np.ndarray, n_vertices: int) -> np.ndarray:
     return np.flatnonzero(~used)
 
 
-def isolated_test(surface, vertices, tri, tree=None) -> Violations:
+def isolated_test(surface, vertices, tri, tree=None, weights=None) -> Violations:
     """T3: samples with no restricted triangle, with a point of their cell each.
 
     Shoots from each such sample p along and around -n and +n; the first
     crossing whose nearest sample is p lies in p's Voronoi cell, so it is the
     centre of an empty ball of radius |x - p|. Samples none of whose shots
-    lands in their cell count as violations without a point.
+    lands in their cell count as violations without a point. With protecting
+    balls (``weights``), balls are not tested (the feature check covers
+    them), and a crossing counts only where no ball has smaller power.
     """
     lonely = isolated_samples(tri, len(vertices))
+    if weights is not None:
+        lonely = lonely[weights[lonely] == 0]
     if lonely.size == 0:
         return _none("isolated")
     x, r, got = shoot_from(surface, vertices, lonely, tree)
+    if weights is not None and len(x):
+        balls = np.flatnonzero(weights > 0)
+        d = x[:, None, :] - vertices[balls][None, :, :]
+        power = np.einsum("ijk,ijk->ij", d, d) - weights[balls][None, :]
+        ok = power.min(axis=1) > r * r
+        x, r, got = x[ok], r[ok], got[ok]
     stuck = vertices[np.setdiff1d(lonely, got)]
     return Violations("isolated", int(lonely.size), x, r, stuck)
 

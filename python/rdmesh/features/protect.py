@@ -1,0 +1,447 @@
+"""Protecting balls on the feature curves (Cheng-Dey-Ramos; CGAL Mesh_3's
+``Protect_edges_sizing_field``; ../shared/design/creases.md 2.3).
+
+Every corner gets a ball, then every curve a chain of balls centred on the
+curve, consecutive balls overlapping, no three meeting, balls of different
+curves (and far parts of one) disjoint. As weighted points of the regular
+triangulation they keep each pair of consecutive centres a triangulation
+edge, and refinement never inserts a point inside a ball (a surface ball's
+centre has positive power to every vertex).
+
+Sizes. The spacing ``h`` of the centres along a curve is at most:
+
+* ``edge_size`` (CGAL's name: the largest length of a mesh edge along a curve);
+* half the curve's radius of curvature (so that a chord of two steps stays
+  longer than two radii);
+* the distance to other curves (or to far parts of the same curve) / 2.1, as
+  Mesh_3's ``refine_balls`` shrinks balls;
+* half the distance to other sheets of the surface, sampled: surface points
+  whose tangent plane does not pass near the curve point (so a ball cannot
+  reach across a thin part);
+* for a corner, a third of the distance to the nearest other corner.
+
+``h`` grows by at most :data:`GROWTH` per unit of arc (so consecutive spacings
+differ by a bounded ratio); a ball's radius is ``0.9 x`` its smaller spacing to
+a neighbour, and at most ``0.9 h`` at its centre. The invariants are then checked exactly on the balls; where one
+fails the spacing there shrinks and the curve is sampled again, at most
+:data:`MAX_LOOPS` times (CGAL caps its loop at 29, with a warning only).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .._vectors import row_norms
+from .graph import FeatureError, FeatureGraph
+
+log = logging.getLogger("rdmesh")
+
+#: Ball radius over the smaller distance to a neighbouring centre (Mesh_3: 0.9).
+RADIUS_FACTOR = 0.9
+#: Balls of different curves: spacing at most this fraction of their distance.
+CURVE_GAP = 1 / 2.1
+#: Spacing at most this fraction of the radius of curvature.
+CURVATURE = 0.5
+#: Spacing at most this fraction of the distance to another sheet.
+SHEET_GAP = 0.5
+#: Corner balls: radius at most this fraction of the distance to another corner.
+CORNER_GAP = 1 / 3
+#: Largest growth of the spacing per unit of arc length.
+GROWTH = 0.4
+#: Dense points of the curves per spacing.
+DENSITY = 8
+#: Shrink factor of the spacing around a failed invariant, and the loop cap.
+SHRINK, MAX_LOOPS = 0.7, 40
+#: Smallest spacing, times R: protection below it is refused.
+MIN_SIZE = 1e-6
+
+Sizing = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass
+class Balls:
+    """Protecting balls of a feature graph.
+
+    Attributes
+    ----------
+    centres : (b, 3) on the curves (corners first).
+    radii : (b,)
+    curve : (b,) int64 the curve of each ball (-1 for a corner).
+    corner : (b,) int64 the corner of each corner ball (-1 otherwise).
+    pairs : (e, 2) int64 consecutive balls along a curve (indices into the balls).
+    pair_curve : (e,) int64 the curve of each pair.
+    chains : list of (k,) int64 each curve's balls in order, end corners included.
+    boundary : (len(curves),) bool curves that bound the mesh (one facet per edge).
+    loops : number of repair loops that ran.
+    """
+
+    centres: np.ndarray
+    radii: np.ndarray
+    curve: np.ndarray
+    corner: np.ndarray
+    pairs: np.ndarray
+    pair_curve: np.ndarray
+    chains: list[np.ndarray] = field(default_factory=list)
+    boundary: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    loops: int = 0
+
+    def __len__(self) -> int:
+        return len(self.centres)
+
+    @property
+    def weights(self) -> np.ndarray:
+        return self.radii**2
+
+    def inside(self, points: np.ndarray, factor: float = 1.0) -> np.ndarray:
+        """Which ``(k, 3)`` points lie inside a ball (radius times ``factor``)."""
+        if len(self) == 0 or len(points) == 0:
+            return np.zeros(len(points), bool)
+        tree = cKDTree(self.centres)
+        reach = factor * float(self.radii.max())
+        d, j = tree.query(points, k=min(8, len(self)), distance_upper_bound=reach)
+        d = d.reshape(len(points), -1)
+        j = j.reshape(len(points), -1)
+        r = np.r_[self.radii, 0.0][np.minimum(j, len(self))]
+        return (d < factor * r).any(axis=1)
+
+
+@dataclass
+class _Dense:
+    """One curve sampled densely: arc positions and points on the polyline."""
+
+    s: np.ndarray
+    x: np.ndarray
+    kappa: np.ndarray  # curvature estimate at each point
+
+
+def protect(
+    graph: FeatureGraph,
+    edge_size: Sizing,
+    radius: float,
+    sheets: tuple[np.ndarray, np.ndarray] | None = None,
+    boundary_sources: tuple[str, ...] = ("clip boundary",),
+) -> Balls:
+    """Place protecting balls on every corner and curve of ``graph``.
+
+    Parameters
+    ----------
+    graph : FeatureGraph
+    edge_size : callable
+        ``(k, 3)`` points to ``k`` largest spacings of the centres.
+    radius : the bounding radius R (tolerances).
+    sheets : ((s, 3) points, (s, 3) unit normals), optional
+        Samples of the surface, to keep balls off other sheets (sampled).
+    boundary_sources : the curve sources that bound the mesh.
+
+    Returns
+    -------
+    Balls
+
+    Raises
+    ------
+    FeatureError
+        When the invariants cannot be met above the smallest spacing (curves
+        or corners closer than ``MIN_SIZE x R``), naming the place.
+    """
+    curves = graph.curves
+    floor = MIN_SIZE * radius
+    h_max = float(np.max(edge_size(np.concatenate([c.points for c in curves] or
+                                                   [graph.corners, np.zeros((1, 3))]))))
+    dense = [_densify(c, h_max) for c in curves]
+    scale = [np.ones(len(d.s)) for d in dense]
+    corner_scale = np.ones(len(graph.corners))
+    for loop in range(MAX_LOOPS):
+        balls, bad = _place(graph, dense, scale, corner_scale, edge_size, radius, sheets)
+        balls.boundary = np.array([c.source in boundary_sources for c in curves], bool)
+        balls.loops = loop
+        if not len(bad):
+            return balls
+        # Shrink the spacing around every ball of a failed invariant.
+        where = balls.centres[bad]
+        reach = 2.0 * balls.radii[bad]
+        for d, sc in zip(dense, scale, strict=True):
+            hit = _near(d.x, where, reach)
+            sc[hit] *= SHRINK
+        if len(graph.corners):
+            corner_scale[_near(graph.corners, where, reach)] *= SHRINK
+        small = balls.radii[bad].min()
+        if small < floor:
+            i = bad[int(np.argmin(balls.radii[bad]))]
+            raise FeatureError(
+                f"cannot protect the feature curves near {np.round(balls.centres[i], 9).tolist()}:"
+                f" the balls there would be smaller than {floor:.3g} (curves or corners too "
+                "close together, or meeting at too small an angle)"
+            )
+    i = int(bad[0])
+    raise FeatureError(
+        f"protecting balls still overlap after {MAX_LOOPS} loops near "
+        f"{np.round(balls.centres[i], 9).tolist()}"
+    )
+
+
+def _near(points: np.ndarray, centres: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """Which points lie within ``reach`` of some centre."""
+    if len(points) == 0 or len(centres) == 0:
+        return np.zeros(len(points), bool)
+    d, j = cKDTree(centres).query(points, k=min(8, len(centres)),
+                                  distance_upper_bound=float(reach.max()))
+    d, j = d.reshape(len(points), -1), j.reshape(len(points), -1)
+    r = np.r_[reach, 0.0][np.minimum(j, len(centres))]
+    return (d < r).any(axis=1)
+
+
+def _densify(curve, h: float) -> _Dense:
+    """Points along a curve's polyline at most ``h / DENSITY`` apart (polyline
+    vertices kept), with the discrete curvature at each."""
+    arc = curve.arc
+    seg = np.diff(arc)
+    per = np.maximum(np.ceil(seg * DENSITY / max(h, 1e-300)), 1).astype(np.int64)
+    start = np.repeat(arc[:-1], per)
+    k = np.arange(per.sum()) - np.repeat(np.cumsum(per) - per, per)
+    s = start + np.repeat(seg / per, per) * k
+    if not curve.closed:
+        s = np.r_[s, arc[-1]]
+    x = curve.point_at(s)
+    # Curvature at the polyline's vertices: turning angle over the mean of the
+    # adjacent segments; spread to each segment's points as the larger of its ends.
+    ring = curve.points
+    n = len(ring)
+    if curve.closed:
+        prv, nxt = np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0)
+    else:
+        prv, nxt = np.r_[ring[:1], ring[:-1]], np.r_[ring[1:], ring[-1:]]
+    u, v = ring - prv, nxt - ring
+    lu, lv = row_norms(u), row_norms(v)
+    cos = np.einsum("ij,ij->i", u, v) / np.maximum(lu * lv, 1e-300)
+    angle = np.arccos(np.clip(cos, -1.0, 1.0))
+    k_v = np.where((lu > 0) & (lv > 0), angle / np.maximum(0.5 * (lu + lv), 1e-300), 0.0)
+    if not curve.closed:
+        k_v[[0, -1]] = 0.0
+    k_next = np.roll(k_v, -1) if curve.closed else np.r_[k_v[1:], 0.0]
+    k_seg = np.maximum(k_v, k_next)[: len(seg)] if n > 1 else np.zeros(len(seg))
+    kappa = np.repeat(k_seg, per)
+    if not curve.closed:
+        kappa = np.r_[kappa, k_v[-1]]
+    return _Dense(s, x, kappa)
+
+
+def _lipschitz(h: np.ndarray, s: np.ndarray, closed: bool, length: float) -> np.ndarray:
+    """The largest function below ``h`` growing at most GROWTH per unit arc."""
+    if closed:
+        # Three copies: the wrap-around is seen from both sides.
+        s3 = np.r_[s - length, s, s + length]
+        h3 = np.r_[h, h, h]
+        out = _lipschitz(h3, s3, False, 0.0)
+        return out[len(s) : 2 * len(s)]
+    g = GROWTH
+    fwd = g * s + np.minimum.accumulate(h - g * s)
+    bwd = -g * s + np.minimum.accumulate((h + g * s)[::-1])[::-1]
+    return np.minimum(fwd, bwd)
+
+
+def _place(graph, dense, scale, corner_scale, edge_size, radius, sheets):
+    """One placement: the balls and the indices of the balls breaking an invariant."""
+    curves, corners, ends = graph.curves, graph.corners, graph.ends
+    n_c = len(corners)
+    # Every dense point, with its curve and arc, for the distance limits.
+    all_x = np.concatenate([d.x for d in dense] + [np.zeros((0, 3))])
+    all_c = np.concatenate([np.full(len(d.s), i) for i, d in enumerate(dense)] +
+                           [np.zeros(0, np.int64)]).astype(np.int64)
+    all_s = np.concatenate([d.s for d in dense] + [np.zeros(0)])
+    tree = cKDTree(all_x) if len(all_x) else None
+    # Corner radii.
+    r_corner = np.zeros(n_c)
+    if n_c:
+        r_corner = np.asarray(edge_size(corners), float) * RADIUS_FACTOR
+        if n_c > 1:
+            dc, _ = cKDTree(corners).query(corners, k=2)
+            r_corner = np.minimum(r_corner, CORNER_GAP * dc[:, 1])
+        r_corner = np.minimum(r_corner, _corner_curve_gap(corners, ends, tree, all_x, all_c))
+        r_corner = np.maximum(r_corner, 0.0)
+        if sheets is not None:
+            r_corner = np.minimum(r_corner, _sheet_gap(corners, sheets, r_corner))
+        r_corner *= corner_scale
+    # Spacing along each curve.
+    centres, radii, curve_of, corner_of, chains = [corners], [r_corner], [], [], []
+    curve_of.append(np.full(n_c, -1))
+    corner_of.append(np.arange(n_c))
+    next_id = n_c
+    pairs, pair_curve = [], []
+    reach = float(np.max(r_corner)) if n_c else 0.0
+    # Dense points inside a corner ball need no ball of their own.
+    in_corner = near_corner = np.zeros(len(all_x), bool)
+    if n_c and len(all_x):
+        dcy, jc = cKDTree(corners).query(all_x)
+        in_corner = dcy < r_corner[jc] / RADIUS_FACTOR
+        # Sheets through a corner that a curve does not bound look like other
+        # sheets from the curve near the corner: the corner's limit holds there.
+        near_corner = dcy < 2.0 * r_corner[jc] / RADIUS_FACTOR
+    offsets = np.r_[0, np.cumsum([len(d.s) for d in dense])]
+    for i, (c, d, sc) in enumerate(zip(curves, dense, scale, strict=True)):
+        h = np.asarray(edge_size(d.x), float)
+        h = np.minimum(h, CURVATURE / np.maximum(d.kappa, 1e-300))
+        mine = slice(offsets[i], offsets[i + 1])
+        h = np.minimum(h, _curve_gap(d, i, c.closed, c.length, tree, all_c, all_s, in_corner,
+                                     mine))
+        if sheets is not None:
+            far = ~near_corner[mine]
+            h[far] = np.minimum(h[far], _sheet_gap(d.x[far], sheets, h[far]))
+        h = h * sc
+        if not c.closed:
+            a, b = ends[i]
+            # The spacing next to a corner fits its ball (radius = 0.9 spacing).
+            h[0] = min(h[0], r_corner[a] / RADIUS_FACTOR)
+            h[-1] = min(h[-1], r_corner[b] / RADIUS_FACTOR)
+        h = _lipschitz(np.maximum(h, 1e-300), d.s, c.closed, c.length)
+        s_k = _positions(d.s, h, c.closed, c.length)
+        x = c.on_curve(s_k)
+        m = len(x)
+        ids = np.arange(next_id, next_id + m)
+        next_id += m
+        if c.closed:
+            chain = ids
+            ring = np.r_[x, x[:1]]
+        else:
+            a, b = ends[i]
+            chain = np.r_[a, ids, b]
+            ring = np.r_[corners[a : a + 1], x, corners[b : b + 1]]
+        gaps = row_norms(np.diff(ring, axis=0))
+        if c.closed:
+            near = np.minimum(gaps, np.roll(gaps, 1))
+        else:
+            near = np.minimum(gaps[:-1], gaps[1:])
+        centres.append(x)
+        # Also below the local limit at the ball itself (other curves, sheets).
+        radii.append(RADIUS_FACTOR * np.minimum(near, _at(s_k, d.s, h, c.closed, c.length)))
+        curve_of.append(np.full(m, i))
+        corner_of.append(np.full(m, -1))
+        link = np.c_[chain[:-1], chain[1:]] if not c.closed else np.c_[chain, np.roll(chain, -1)]
+        pairs.append(link)
+        pair_curve.append(np.full(len(link), i))
+        chains.append(chain if not c.closed else np.r_[chain, chain[:1]])
+        if not c.closed:
+            # A corner ball's radius must fit its first spacing on every curve.
+            r_corner[a] = min(r_corner[a], RADIUS_FACTOR * gaps[0])
+            r_corner[b] = min(r_corner[b], RADIUS_FACTOR * gaps[-1])
+        reach = max(reach, float(radii[-1].max()) if m else 0.0)
+    radii[0] = r_corner
+    balls = Balls(
+        centres=np.concatenate(centres),
+        radii=np.concatenate(radii),
+        curve=np.concatenate(curve_of).astype(np.int64),
+        corner=np.concatenate(corner_of).astype(np.int64),
+        pairs=np.concatenate(pairs).astype(np.int64) if pairs else np.zeros((0, 2), np.int64),
+        pair_curve=np.concatenate(pair_curve).astype(np.int64) if pairs else np.zeros(0, np.int64),
+        chains=chains,
+    )
+    return balls, _broken(balls)
+
+
+def _at(s_k: np.ndarray, s: np.ndarray, h: np.ndarray, closed: bool, length: float) -> np.ndarray:
+    """``h`` (given at arc positions ``s``) at arc positions ``s_k``."""
+    if closed:
+        return np.interp(s_k, np.r_[s, length], np.r_[h, h[:1]])
+    return np.interp(s_k, s, h)
+
+
+def _positions(s: np.ndarray, h: np.ndarray, closed: bool, length: float) -> np.ndarray:
+    """Arc positions of the centres strictly inside a curve (open: between its
+    end corners; closed: all, the first at arc 0), spaced about ``h``."""
+    if closed:
+        s_ = np.r_[s, length]
+        h_ = np.r_[h, h[:1]]
+    else:
+        s_, h_ = s, h
+    inv = 1.0 / h_
+    steps = np.r_[0.0, np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(s_))]
+    total = steps[-1]
+    if closed:
+        n = max(3, int(np.ceil(total)))
+        return np.interp(np.arange(n) * total / n, steps, s_)
+    n = max(1, int(np.ceil(total)))
+    return np.interp(np.arange(1, n) * total / n, steps, s_)
+
+
+def _corner_curve_gap(corners, ends, tree, all_x, all_c) -> np.ndarray:
+    """Per corner: CURVE_GAP times the distance to the nearest curve not ending at it."""
+    out = np.full(len(corners), np.inf)
+    if tree is None:
+        return out
+    k = min(64, len(all_x))
+    d, j = tree.query(corners, k=k)
+    d, j = d.reshape(len(corners), -1), j.reshape(len(corners), -1)
+    own = np.zeros((len(corners), k), bool)
+    for side in (0, 1):
+        # A curve ending at the corner is incident to it.
+        e = ends[:, side]
+        own |= e[all_c[j]] == np.arange(len(corners))[:, None]
+    d = np.where(own, np.inf, d)
+    return CURVE_GAP * d.min(axis=1)
+
+
+def _curve_gap(d, i, closed, length, tree, all_c, all_s, in_corner, mine) -> np.ndarray:
+    """Per dense point of curve i: CURVE_GAP times the distance to other
+    curves and far parts of curve i, ignoring points inside corner balls
+    (``in_corner`` over every dense point; ``mine`` the slice of curve i's)."""
+    k = min(48, len(all_c))
+    dist, j = tree.query(d.x, k=k)
+    dist, j = dist.reshape(len(d.s), -1), j.reshape(len(d.s), -1)
+    same = all_c[j] == i
+    gap = np.abs(all_s[j] - d.s[:, None])
+    if closed:
+        gap = np.minimum(gap, length - gap)
+    local = same & (gap <= 2.0 * dist + 1e-12 * max(length, 1e-300))
+    dist = np.where(local | in_corner[j], np.inf, dist)
+    return np.where(in_corner[mine], np.inf, CURVE_GAP * dist.min(axis=1))
+
+
+def _sheet_gap(x: np.ndarray, sheets, h: np.ndarray) -> np.ndarray:
+    """SHEET_GAP times the distance from each point to surface samples whose
+    tangent plane passes far from it (another sheet), among the nearest ones."""
+    pts, nrm = sheets
+    if len(pts) == 0:
+        return np.full(len(x), np.inf)
+    k = min(24, len(pts))
+    reach = float(np.max(h)) * 4.0 if np.all(np.isfinite(h)) else np.inf
+    dist, j = cKDTree(pts).query(x, k=k, distance_upper_bound=reach)
+    dist, j = dist.reshape(len(x), -1), j.reshape(len(x), -1)
+    ok = j < len(pts)
+    jj = np.minimum(j, len(pts) - 1)
+    off = np.abs(np.einsum("ijk,ijk->ij", nrm[jj], pts[jj] - x[:, None, :]))
+    other = ok & (off > 0.5 * dist)
+    d = np.where(other, dist, np.inf)
+    return SHEET_GAP * d.min(axis=1)
+
+
+def _broken(balls: Balls) -> np.ndarray:
+    """Indices of balls in a failed invariant: consecutive balls that do not
+    overlap or hold each other's centres; other pairs that meet."""
+    c, r = balls.centres, balls.radii
+    bad = []
+    if len(balls.pairs):
+        i, j = balls.pairs[:, 0], balls.pairs[:, 1]
+        d = row_norms(c[i] - c[j])
+        fail = (d >= r[i] + r[j]) | (d <= np.maximum(r[i], r[j])) | ~np.isfinite(d)
+        bad.append(i[fail])
+        bad.append(j[fail])
+    if len(c) > 1:
+        tree = cKDTree(c)
+        pairs = np.array(sorted(tree.query_pairs(2.0 * float(r.max()))), np.int64).reshape(-1, 2)
+        if len(pairs):
+            i, j = pairs[:, 0], pairs[:, 1]
+            d = row_norms(c[i] - c[j])
+            meet = d <= (r[i] + r[j]) * (1.0 + 1e-9)
+            key = np.minimum(i, j) * len(c) + np.maximum(i, j)
+            p = balls.pairs
+            cons = np.minimum(p[:, 0], p[:, 1]) * len(c) + np.maximum(p[:, 0], p[:, 1])
+            meet &= ~np.isin(key, cons)
+            bad.append(i[meet])
+            bad.append(j[meet])
+    if not bad:
+        return np.zeros(0, np.int64)
+    return np.unique(np.concatenate(bad))
