@@ -1,14 +1,12 @@
-"""Triangles at the boundary of clipped surfaces (issue 15).
+"""Triangles at the boundary of clipped surfaces (issues 15 and 27).
 
-Refinement points that would become boundary vertices split the chord
-between two consecutive boundary vertices at its middle (never below a
-quarter of the size bound for the angle bound's sake, an eighth for the
-other criteria), and triangles with an edge on the boundary are held to the
-angle bound until their surface ball is below a quarter of the size bound.
-Nothing here is proven: the floors below are the smallest angles measured
-on these cases (``python scripts/boundary_angles.py``), less about 2
-degrees; before the change they were 8.5 (gyroid), 29.4 (plane), 20.0
-(cylinder), 29.7 (half torus) and 18.0 (volume) degrees.
+The boundary curve is protected by balls (:mod:`rdmesh.features`): every
+boundary edge joins consecutive ball centres, and triangles with a ball
+centre get Mesh_3's relaxation of the criteria, with a floor of 20 degrees
+while their surface ball is at least a quarter of the protecting ball. Nothing
+here is proven: 20 degrees is the issue's target, measured on these cases
+(21.3 to 29.0 degrees on 2026-12-02); before protection, with snapped
+boundary vertices, the smallest were 25 (gyroid) to 30 degrees.
 
 Every property is recomputed from the vertex and face arrays (``meshcheck``).
 The topology (Euler characteristic, boundary loops) is the one measured
@@ -37,18 +35,18 @@ def _expression(text, box, radius=None):
 #: name -> (surface, box, radius bound, distance bound, Euler characteristic
 #: and boundary loops before the change, smallest boundary angle allowed)
 CASES = {
-    "gyroid": (lambda: _expression(GYROID, CUBE, 7.7), CUBE, 0.25, 0.02, -19, 1, 23.0),
-    "plane": (lambda: _expression("z - 0.13 - 0.1*x + 0.2*y", UNIT), UNIT, 0.1, None, 1, 1, 28.0),
+    "gyroid": (lambda: _expression(GYROID, CUBE, 7.7), CUBE, 0.25, 0.02, -19, 1, 20.0),
+    "plane": (lambda: _expression("z - 0.13 - 0.1*x + 0.2*y", UNIT), UNIT, 0.1, None, 1, 1, 20.0),
     "cylinder": (
-        lambda: _expression("sqrt(x**2 + y**2) - 0.55", UNIT), UNIT, 0.08, None, 0, 2, 28.0,
+        lambda: _expression("sqrt(x**2 + y**2) - 0.55", UNIT), UNIT, 0.08, None, 0, 2, 20.0,
     ),
     "half torus": (
         lambda: _expression("sqrt((sqrt(x**2 + y**2) - 0.6)**2 + z**2) - 0.25", HALF),
-        HALF, 0.05, 0.01, 0, 2, 28.0,
+        HALF, 0.05, 0.01, 0, 2, 20.0,
     ),
     "volume": (
         lambda: volume(torus, TORUS_BOX[0], TORUS_BOX[1], n=32), np.array(TORUS_BOX), 0.1,
-        0.01, -1, 1, 28.0,
+        0.01, -1, 1, 20.0,
     ),
 }  # fmt: skip
 
@@ -74,9 +72,13 @@ def case(request):
 def test_boundary_triangles_keep_the_measured_angle(case):
     name, m, box, (_, _, floor) = case
     assert m.complete, name
+    assert m.features.held, name
     tol = 1e-12 * float(np.max(box[1] - box[0]))
     gap = np.abs(np.minimum(m.vertices - box[0], box[1] - m.vertices).min(axis=1))
-    at = (gap[m.faces] <= tol).sum(axis=1) >= 2
+    on_box = gap <= tol
+    # The protecting balls' centres are exactly the vertices on the box.
+    assert np.array_equal(on_box, m.weights > 0), name
+    at = on_box[m.faces].any(axis=1)
     assert at.any(), name
     smallest = _angles(m.vertices[m.faces]).min(axis=1)
     assert smallest[at].min() >= floor, (name, smallest[at].min())

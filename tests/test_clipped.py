@@ -20,8 +20,10 @@ def _on_sphere(m: rdmesh.SurfaceMesh, centre, radius) -> np.ndarray:
 
 def _check_clipped(m, f, centre, radius, angle_bound=30.0):
     """What every clipped mesh satisfies: a manifold with boundary whose
-    boundary vertices lie on the sphere and on the surface; the angle bound
-    on every triangle with at most one vertex on the sphere."""
+    boundary vertices lie on the sphere and on the surface, every boundary
+    edge joining consecutive protecting balls (the feature check); the angle
+    bound on every triangle without a ball centre, and (measured, not
+    proven) at least 20 degrees on those with one."""
     assert m.complete
     assert m.is_manifold_with_boundary()
     assert not m.is_closed_manifold()
@@ -33,8 +35,13 @@ def _check_clipped(m, f, centre, radius, angle_bound=30.0):
     r = np.linalg.norm(m.vertices - np.asarray(centre, float), axis=1)
     assert r.max() <= radius * (1 + 1e-12)
     assert np.abs(f(m.vertices)).max() <= 1e-6 * radius
-    on_boundary_edge = _on_sphere(m, centre, radius)[m.faces].sum(axis=1) >= 2
-    assert m.angles[~on_boundary_edge].min() >= angle_bound - 1e-9
+    assert m.features is not None and m.features.held
+    at_ball = (m.weights > 0)[m.faces].any(axis=1)
+    assert m.angles[~at_ball].min() >= angle_bound - 1e-9
+    assert m.angles[at_ball].min() >= min(angle_bound, 20.0)
+    # The boundary is made of the protected curves' edges only.
+    edges, _ = boundary_edges(m.faces)
+    assert len(edges) == m.features.edges
     rep = m.report
     assert rep["certified"] is False
     assert m.topology_certified is False

@@ -65,9 +65,12 @@ def _check(
     gap = np.abs(s(mid)) / np.linalg.norm(g, axis=1)
     assert gap.max() <= DISTANCE
     # Interior triangles keep the angle bound; those with an edge on the
-    # boundary (two vertices on the box) are exempt: measured only.
-    exempt = on.any(axis=1)[m.faces].sum(axis=1) >= 2
+    # boundary (a protecting ball's centre) are relaxed: measured only.
+    assert m.features is not None and m.features.held
+    assert len(edges) == m.features.edges
+    exempt = (m.weights > 0)[m.faces].any(axis=1)
     assert m.angles[~exempt].min() >= 30.0 - 1e-9
+    assert m.angles[exempt].min() >= 20.0
     rep = m.report
     assert rep["certified"] is False and m.topology_certified is False
     bd = rep["boundary"]
@@ -96,10 +99,12 @@ def test_a_plane_through_the_box_is_a_disk_with_its_edge_crossings():
         d = np.linalg.norm(m.vertices[bv] - [x, y, z], axis=1).min()
         assert d <= 1e-9
     # The tilted plane meets the 4 side faces along straight segments: the
-    # boundary is their polygon (length of the 4 segments).
+    # boundary is about their polygon (length of the 4 segments). The cubic
+    # interpolant of the sampled plane (mirror boundary) strays from it by
+    # about 1.4e-3 at the faces, so its curve there is slightly wavy.
     edges, _ = boundary_edges(m.faces)
     length = np.linalg.norm(m.vertices[edges[:, 0]] - m.vertices[edges[:, 1]], axis=1).sum()
-    assert length == pytest.approx(2 * np.hypot(2, 0.2) + 2 * 2, rel=1e-6)
+    assert length == pytest.approx(2 * np.hypot(2, 0.2) + 2 * 2, rel=1e-4)
 
 
 def test_a_cylinder_longer_than_the_box_is_an_annulus():

@@ -124,3 +124,23 @@ def check_features(
         failed=np.concatenate(failed),
         balls=b,
     )
+
+
+def repair_sites(mesh, angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """Where to shrink the balls of a mesh: the failed places of its feature
+    check, and the ball centres of triangles below ``angle`` degrees.
+    Returns ``(points (k, 3), radii (k,))``: each place and the radius about
+    it within which balls shrink."""
+    f = mesh.features
+    w = mesh.weights
+    r_max = float(np.sqrt(w.max())) if w is not None and len(w) and w.max() > 0 else 0.0
+    pts = [f.failed]
+    rad = [np.full(len(f.failed), 2.0 * r_max)]
+    if len(mesh.faces):
+        low = mesh.angles < angle
+        heavy = w[mesh.faces] > 0
+        hit = low[:, None] & heavy
+        ids = np.unique(mesh.faces[hit])
+        pts.append(mesh.vertices[ids])
+        rad.append(2.0 * np.sqrt(w[ids]))
+    return np.concatenate(pts), np.concatenate(rad)

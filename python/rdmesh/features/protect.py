@@ -12,7 +12,8 @@ Sizes. The spacing ``h`` of the centres along a curve is at most:
 
 * ``edge_size`` (CGAL's name: the largest length of a mesh edge along a curve);
 * half the curve's radius of curvature (so that a chord of two steps stays
-  longer than two radii);
+  longer than two radii), and ``sqrt(8 d / kappa)`` for a distance bound d
+  (a chord's sagitta);
 * the distance to other curves (or to far parts of the same curve) / 2.1, as
   Mesh_3's ``refine_balls`` shrinks balls;
 * half the distance to other sheets of the surface, sampled: surface points
@@ -51,12 +52,16 @@ CURVATURE = 0.5
 SHEET_GAP = 0.5
 #: Corner balls: radius at most this fraction of the distance to another corner.
 CORNER_GAP = 1 / 3
+#: Curve points within this fraction of a corner ball's radius are the corner's.
+CORNER_CORE = 0.5
 #: Largest growth of the spacing per unit of arc length.
 GROWTH = 0.4
 #: Dense points of the curves per spacing.
 DENSITY = 8
-#: Shrink factor of the spacing around a failed invariant, and the loop cap.
-SHRINK, MAX_LOOPS = 0.7, 40
+#: Spacing factor where a mesh failed its feature check.
+SHRINK = 0.6
+#: Repair rounds at most (CGAL: 29).
+MAX_LOOPS = 40
 #: Smallest spacing, times R: protection below it is refused.
 MIN_SIZE = 1e-6
 
@@ -89,6 +94,8 @@ class Balls:
     chains: list[np.ndarray] = field(default_factory=list)
     boundary: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     loops: int = 0
+    #: (b,) int64 each ball's position in its curve's own balls (-1 for a corner).
+    index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     def __len__(self) -> int:
         return len(self.centres)
@@ -125,6 +132,8 @@ def protect(
     radius: float,
     sheets: tuple[np.ndarray, np.ndarray] | None = None,
     boundary_sources: tuple[str, ...] = ("clip boundary",),
+    distance: float | None = None,
+    shrink: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> Balls:
     """Place protecting balls on every corner and curve of ``graph``.
 
@@ -137,6 +146,14 @@ def protect(
     sheets : ((s, 3) points, (s, 3) unit normals), optional
         Samples of the surface, to keep balls off other sheets (sampled).
     boundary_sources : the curve sources that bound the mesh.
+    distance : float, optional
+        The distance bound: a chord between consecutive centres strays at
+        most this far from the curve (``8 d / kappa >= h^2``, from the
+        curvature estimate).
+    shrink : list of ((k, 3) points, (k,) radii), optional
+        Places where an earlier mesh failed its feature check: the spacing
+        within each radius of each point is multiplied by :data:`SHRINK`, once
+        per entry (DelPSC's repair).
 
     Returns
     -------
@@ -153,43 +170,167 @@ def protect(
     h_max = float(np.max(edge_size(np.concatenate([c.points for c in curves] or
                                                    [graph.corners, np.zeros((1, 3))]))))
     dense = [_densify(c, h_max) for c in curves]
-    scale = [np.ones(len(d.s)) for d in dense]
-    corner_scale = np.ones(len(graph.corners))
+    state = _place(graph, dense, edge_size, sheets, distance, shrink or [])
+    boundary = np.array([c.source in boundary_sources for c in curves], bool)
     for loop in range(MAX_LOOPS):
-        balls, bad = _place(graph, dense, scale, corner_scale, edge_size, radius, sheets)
-        balls.boundary = np.array([c.source in boundary_sources for c in curves], bool)
-        balls.loops = loop
-        if not len(bad):
+        balls = _assemble(graph, state)
+        balls.boundary, balls.loops = boundary, loop
+        if not _repair(balls, state, graph):
             return balls
-        # Shrink the spacing around every ball of a failed invariant.
-        where = balls.centres[bad]
-        reach = 2.0 * balls.radii[bad]
-        for d, sc in zip(dense, scale, strict=True):
-            hit = _near(d.x, where, reach)
-            sc[hit] *= SHRINK
-        if len(graph.corners):
-            corner_scale[_near(graph.corners, where, reach)] *= SHRINK
-        small = balls.radii[bad].min()
-        if small < floor:
-            i = bad[int(np.argmin(balls.radii[bad]))]
+        if state.smallest() < floor:
+            i = int(np.argmin(balls.radii))
             raise FeatureError(
                 f"cannot protect the feature curves near {np.round(balls.centres[i], 9).tolist()}:"
                 f" the balls there would be smaller than {floor:.3g} (curves or corners too "
                 "close together, or meeting at too small an angle)"
             )
-    i = int(bad[0])
     raise FeatureError(
-        f"protecting balls still overlap after {MAX_LOOPS} loops near "
-        f"{np.round(balls.centres[i], 9).tolist()}"
+        f"protecting balls still break an invariant after {MAX_LOOPS} loops (curves or "
+        "corners too close together, or meeting at too small an angle)"
     )
 
 
-def _near(points: np.ndarray, centres: np.ndarray, reach: np.ndarray) -> np.ndarray:
-    """Which points lie within ``reach`` of some centre."""
+@dataclass
+class _State:
+    """Balls being placed: per curve, the arc positions, centres and radii of
+    its own balls (not its end corners), and the corners' radii."""
+
+    s: list[np.ndarray]
+    x: list[np.ndarray]
+    r: list[np.ndarray]
+    r_corner: np.ndarray
+
+    def smallest(self) -> float:
+        vals = [self.r_corner] + self.r
+        return min((float(v.min()) for v in vals if len(v)), default=np.inf)
+
+
+def _assemble(graph: FeatureGraph, st: _State) -> Balls:
+    """The balls of a state: corners first, then each curve's in order."""
+    n_c = len(graph.corners)
+    centres, radii, curve_of, corner_of, index = [graph.corners], [st.r_corner], [], [], []
+    curve_of.append(np.full(n_c, -1))
+    corner_of.append(np.arange(n_c))
+    index.append(np.full(n_c, -1))
+    pairs, pair_curve, chains = [], [], []
+    next_id = n_c
+    for i, c in enumerate(graph.curves):
+        m = len(st.s[i])
+        ids = np.arange(next_id, next_id + m)
+        next_id += m
+        centres.append(st.x[i])
+        radii.append(st.r[i])
+        curve_of.append(np.full(m, i))
+        corner_of.append(np.full(m, -1))
+        index.append(np.arange(m))
+        if c.closed:
+            chain = np.r_[ids, ids[:1]]
+        else:
+            a, b = graph.ends[i]
+            chain = np.r_[a, ids, b]
+        pairs.append(np.c_[chain[:-1], chain[1:]])
+        pair_curve.append(np.full(len(chain) - 1, i))
+        chains.append(chain)
+    balls = Balls(
+        centres=np.concatenate(centres),
+        radii=np.concatenate(radii),
+        curve=np.concatenate(curve_of).astype(np.int64),
+        corner=np.concatenate(corner_of).astype(np.int64),
+        pairs=np.concatenate(pairs).astype(np.int64) if pairs else np.zeros((0, 2), np.int64),
+        pair_curve=np.concatenate(pair_curve).astype(np.int64) if pairs else np.zeros(0, np.int64),
+        chains=chains,
+    )
+    balls.index = np.concatenate(index).astype(np.int64)
+    return balls
+
+
+def _repair(balls: Balls, st: _State, graph: FeatureGraph) -> bool:
+    """One round of Mesh_3's ``refine_balls`` and ``check_and_repopulate_edges``
+    on the state; returns whether anything was broken.
+
+    Balls that meet but are not consecutive shrink to their distance / 2.1; a
+    ball holding its neighbour's centre shrinks to 0.9 times their distance;
+    consecutive balls that no longer overlap get new balls between them,
+    spaced by the smaller radius."""
+    c, r = balls.centres, balls.radii.copy()
+    broken = False
+    meet = _meeting(balls)
+    if len(meet):
+        d = row_norms(c[meet[:, 0]] - c[meet[:, 1]])
+        np.minimum.at(r, meet[:, 0], CURVE_GAP * d)
+        np.minimum.at(r, meet[:, 1], CURVE_GAP * d)
+        broken = True
+    p = balls.pairs
+    if len(p):
+        d = row_norms(c[p[:, 0]] - c[p[:, 1]])
+        big = np.where(r[p[:, 0]] >= r[p[:, 1]], p[:, 0], p[:, 1])
+        inside = d <= r[big] * (1.0 + 1e-9)
+        if inside.any():
+            np.minimum.at(r, big[inside], RADIUS_FACTOR * d[inside])
+            broken = True
+    _write_radii(balls, st, r)
+    if len(p):
+        gap = d >= OVERLAP * (r[p[:, 0]] + r[p[:, 1]])
+        if gap.any():
+            broken = True
+            _split(balls, st, graph, np.flatnonzero(gap), r)
+    return broken
+
+
+#: Consecutive balls must overlap: distance below this times the sum of radii.
+OVERLAP = 0.95
+
+
+def _write_radii(balls: Balls, st: _State, r: np.ndarray) -> None:
+    corner = balls.corner >= 0
+    st.r_corner = r[corner][np.argsort(balls.corner[corner])]
+    for i in range(len(st.r)):
+        mine = balls.curve == i
+        st.r[i] = r[mine][np.argsort(balls.index[mine])]
+
+
+def _split(balls: Balls, st: _State, graph: FeatureGraph, which: np.ndarray, r: np.ndarray) -> None:
+    """New balls between the consecutive pairs ``which`` (indices into pairs)."""
+    add: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
+    for k in which:
+        i = int(balls.pair_curve[k])
+        c = graph.curves[i]
+        a, b = balls.pairs[k]
+        sa = _arc_of(balls, st, graph, a, i, start=True)
+        sb = _arc_of(balls, st, graph, b, i, start=False)
+        if c.closed and sb <= sa:
+            sb += c.length
+        span = sb - sa
+        step = min(r[a], r[b])
+        n = max(1, int(np.ceil(span / max(step, 1e-300)))) - 1
+        n = max(n, 1)
+        s_new = sa + span * np.arange(1, n + 1) / (n + 1)
+        if c.closed:
+            s_new = np.mod(s_new, c.length)
+        r_new = np.full(n, RADIUS_FACTOR * span / (n + 1))
+        add.setdefault(i, []).append((s_new, r_new))
+    for i, parts in add.items():
+        c = graph.curves[i]
+        s_all = np.concatenate([st.s[i]] + [q[0] for q in parts])
+        r_all = np.concatenate([st.r[i]] + [q[1] for q in parts])
+        order = np.argsort(s_all, kind="stable")
+        st.s[i], st.r[i] = s_all[order], r_all[order]
+        st.x[i] = c.on_curve(st.s[i])
+
+
+def _arc_of(balls, st, graph, ball: int, curve: int, start: bool) -> float:
+    """The arc position on ``curve`` of a ball of its chain (a corner: an end)."""
+    if balls.corner[ball] >= 0:
+        return 0.0 if start else graph.curves[curve].length
+    return float(st.s[curve][balls.index[ball]])
+
+
+def _within(points: np.ndarray, centres: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """Which points lie within ``reach`` (per centre) of some centre."""
     if len(points) == 0 or len(centres) == 0:
         return np.zeros(len(points), bool)
-    d, j = cKDTree(centres).query(points, k=min(8, len(centres)),
-                                  distance_upper_bound=float(reach.max()))
+    k = min(16, len(centres))
+    d, j = cKDTree(centres).query(points, k=k, distance_upper_bound=float(reach.max()))
     d, j = d.reshape(len(points), -1), j.reshape(len(points), -1)
     r = np.r_[reach, 0.0][np.minimum(j, len(centres))]
     return (d < r).any(axis=1)
@@ -244,8 +385,9 @@ def _lipschitz(h: np.ndarray, s: np.ndarray, closed: bool, length: float) -> np.
     return np.minimum(fwd, bwd)
 
 
-def _place(graph, dense, scale, corner_scale, edge_size, radius, sheets):
-    """One placement: the balls and the indices of the balls breaking an invariant."""
+def _place(graph, dense, edge_size, sheets, distance, shrink) -> _State:
+    """The first placement: spacing from the limits, grown at most GROWTH per
+    unit arc, centres at that spacing, radii 0.9 times it."""
     curves, corners, ends = graph.curves, graph.corners, graph.ends
     n_c = len(corners)
     # Every dense point, with its curve and arc, for the distance limits.
@@ -265,33 +407,45 @@ def _place(graph, dense, scale, corner_scale, edge_size, radius, sheets):
         r_corner = np.maximum(r_corner, 0.0)
         if sheets is not None:
             r_corner = np.minimum(r_corner, _sheet_gap(corners, sheets, r_corner))
-        r_corner *= corner_scale
-    # Spacing along each curve.
-    centres, radii, curve_of, corner_of, chains = [corners], [r_corner], [], [], []
-    curve_of.append(np.full(n_c, -1))
-    corner_of.append(np.arange(n_c))
-    next_id = n_c
-    pairs, pair_curve = [], []
-    reach = float(np.max(r_corner)) if n_c else 0.0
-    # Dense points inside a corner ball need no ball of their own.
-    in_corner = near_corner = np.zeros(len(all_x), bool)
+        for pts, reach in shrink:
+            r_corner[_within(corners, pts, reach)] *= SHRINK
+    # The curves' own limits (size, curvature, sheets away from corners).
+    near_corner = np.zeros(len(all_x), bool)
     if n_c and len(all_x):
         dcy, jc = cKDTree(corners).query(all_x)
-        in_corner = dcy < r_corner[jc] / RADIUS_FACTOR
         # Sheets through a corner that a curve does not bound look like other
         # sheets from the curve near the corner: the corner's limit holds there.
         near_corner = dcy < 2.0 * r_corner[jc] / RADIUS_FACTOR
     offsets = np.r_[0, np.cumsum([len(d.s) for d in dense])]
-    for i, (c, d, sc) in enumerate(zip(curves, dense, scale, strict=True)):
+    own = []
+    for i, d in enumerate(dense):
         h = np.asarray(edge_size(d.x), float)
         h = np.minimum(h, CURVATURE / np.maximum(d.kappa, 1e-300))
-        mine = slice(offsets[i], offsets[i + 1])
-        h = np.minimum(h, _curve_gap(d, i, c.closed, c.length, tree, all_c, all_s, in_corner,
-                                     mine))
+        if distance is not None:
+            h = np.minimum(h, np.sqrt(8.0 * distance / np.maximum(d.kappa, 1e-300)))
         if sheets is not None:
-            far = ~near_corner[mine]
+            far = ~near_corner[offsets[i] : offsets[i + 1]]
             h[far] = np.minimum(h[far], _sheet_gap(d.x[far], sheets, h[far]))
-        h = h * sc
+        for pts, reach in shrink:
+            h[_within(d.x, pts, reach)] *= SHRINK
+        own.append(h)
+    # A corner's ball fits the spacing its curves allow next to it.
+    for i, c in enumerate(curves):
+        if not c.closed:
+            a, b = ends[i]
+            r_corner[a] = min(r_corner[a], RADIUS_FACTOR * own[i][0])
+            r_corner[b] = min(r_corner[b], RADIUS_FACTOR * own[i][-1])
+    # Dense points well inside a corner ball need no ball of their own, and
+    # the distance between curves meeting at the corner goes to 0 there
+    # (the first ball's centre is at least about half the radius out).
+    in_corner = np.zeros(len(all_x), bool)
+    if n_c and len(all_x):
+        in_corner = dcy < CORNER_CORE * r_corner[jc]
+    st = _State([], [], [], r_corner)
+    for i, (c, d) in enumerate(zip(curves, dense, strict=True)):
+        mine = slice(offsets[i], offsets[i + 1])
+        gap = _curve_gap(d, i, c.closed, c.length, tree, all_c, all_s, in_corner, mine)
+        h = np.minimum(own[i], gap)
         if not c.closed:
             a, b = ends[i]
             # The spacing next to a corner fits its ball (radius = 0.9 spacing).
@@ -300,46 +454,17 @@ def _place(graph, dense, scale, corner_scale, edge_size, radius, sheets):
         h = _lipschitz(np.maximum(h, 1e-300), d.s, c.closed, c.length)
         s_k = _positions(d.s, h, c.closed, c.length)
         x = c.on_curve(s_k)
-        m = len(x)
-        ids = np.arange(next_id, next_id + m)
-        next_id += m
         if c.closed:
-            chain = ids
             ring = np.r_[x, x[:1]]
         else:
-            a, b = ends[i]
-            chain = np.r_[a, ids, b]
             ring = np.r_[corners[a : a + 1], x, corners[b : b + 1]]
         gaps = row_norms(np.diff(ring, axis=0))
-        if c.closed:
-            near = np.minimum(gaps, np.roll(gaps, 1))
-        else:
-            near = np.minimum(gaps[:-1], gaps[1:])
-        centres.append(x)
+        near = np.minimum(gaps, np.roll(gaps, 1)) if c.closed else np.minimum(gaps[:-1], gaps[1:])
         # Also below the local limit at the ball itself (other curves, sheets).
-        radii.append(RADIUS_FACTOR * np.minimum(near, _at(s_k, d.s, h, c.closed, c.length)))
-        curve_of.append(np.full(m, i))
-        corner_of.append(np.full(m, -1))
-        link = np.c_[chain[:-1], chain[1:]] if not c.closed else np.c_[chain, np.roll(chain, -1)]
-        pairs.append(link)
-        pair_curve.append(np.full(len(link), i))
-        chains.append(chain if not c.closed else np.r_[chain, chain[:1]])
-        if not c.closed:
-            # A corner ball's radius must fit its first spacing on every curve.
-            r_corner[a] = min(r_corner[a], RADIUS_FACTOR * gaps[0])
-            r_corner[b] = min(r_corner[b], RADIUS_FACTOR * gaps[-1])
-        reach = max(reach, float(radii[-1].max()) if m else 0.0)
-    radii[0] = r_corner
-    balls = Balls(
-        centres=np.concatenate(centres),
-        radii=np.concatenate(radii),
-        curve=np.concatenate(curve_of).astype(np.int64),
-        corner=np.concatenate(corner_of).astype(np.int64),
-        pairs=np.concatenate(pairs).astype(np.int64) if pairs else np.zeros((0, 2), np.int64),
-        pair_curve=np.concatenate(pair_curve).astype(np.int64) if pairs else np.zeros(0, np.int64),
-        chains=chains,
-    )
-    return balls, _broken(balls)
+        st.s.append(s_k)
+        st.x.append(x)
+        st.r.append(RADIUS_FACTOR * np.minimum(near, _at(s_k, d.s, h, c.closed, c.length)))
+    return st
 
 
 def _at(s_k: np.ndarray, s: np.ndarray, h: np.ndarray, closed: bool, length: float) -> np.ndarray:
@@ -404,7 +529,7 @@ def _sheet_gap(x: np.ndarray, sheets, h: np.ndarray) -> np.ndarray:
     """SHEET_GAP times the distance from each point to surface samples whose
     tangent plane passes far from it (another sheet), among the nearest ones."""
     pts, nrm = sheets
-    if len(pts) == 0:
+    if len(pts) == 0 or len(x) == 0:
         return np.full(len(x), np.inf)
     k = min(24, len(pts))
     reach = float(np.max(h)) * 4.0 if np.all(np.isfinite(h)) else np.inf
@@ -418,30 +543,22 @@ def _sheet_gap(x: np.ndarray, sheets, h: np.ndarray) -> np.ndarray:
     return SHEET_GAP * d.min(axis=1)
 
 
-def _broken(balls: Balls) -> np.ndarray:
-    """Indices of balls in a failed invariant: consecutive balls that do not
-    overlap or hold each other's centres; other pairs that meet."""
+def _meeting(balls: Balls) -> np.ndarray:
+    """Pairs of balls ``(k, 2)`` that meet (closed balls) but are not
+    consecutive on a curve."""
     c, r = balls.centres, balls.radii
-    bad = []
-    if len(balls.pairs):
-        i, j = balls.pairs[:, 0], balls.pairs[:, 1]
-        d = row_norms(c[i] - c[j])
-        fail = (d >= r[i] + r[j]) | (d <= np.maximum(r[i], r[j])) | ~np.isfinite(d)
-        bad.append(i[fail])
-        bad.append(j[fail])
-    if len(c) > 1:
-        tree = cKDTree(c)
-        pairs = np.array(sorted(tree.query_pairs(2.0 * float(r.max()))), np.int64).reshape(-1, 2)
-        if len(pairs):
-            i, j = pairs[:, 0], pairs[:, 1]
-            d = row_norms(c[i] - c[j])
-            meet = d <= (r[i] + r[j]) * (1.0 + 1e-9)
-            key = np.minimum(i, j) * len(c) + np.maximum(i, j)
-            p = balls.pairs
-            cons = np.minimum(p[:, 0], p[:, 1]) * len(c) + np.maximum(p[:, 0], p[:, 1])
-            meet &= ~np.isin(key, cons)
-            bad.append(i[meet])
-            bad.append(j[meet])
-    if not bad:
-        return np.zeros(0, np.int64)
-    return np.unique(np.concatenate(bad))
+    if len(c) < 2:
+        return np.zeros((0, 2), np.int64)
+    tree = cKDTree(c)
+    pairs = np.array(sorted(tree.query_pairs(2.0 * float(r.max()))), np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        return pairs
+    i, j = pairs[:, 0], pairs[:, 1]
+    d = row_norms(c[i] - c[j])
+    meet = d <= (r[i] + r[j]) * (1.0 + 1e-9)
+    n = len(c)
+    key = np.minimum(i, j) * n + np.maximum(i, j)
+    p = balls.pairs
+    cons = np.minimum(p[:, 0], p[:, 1]) * n + np.maximum(p[:, 0], p[:, 1])
+    meet &= ~np.isin(key, cons)
+    return pairs[meet]

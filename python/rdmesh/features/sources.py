@@ -63,11 +63,14 @@ def _loops_as_curves(curve: BoundaryCurve, project: Callable, source: str) -> li
     corners = curve.corners
     for k in range(curve.n_loops):
         pts = dense[loop == k]
+        at = np.zeros(len(pts), bool)
+        if len(corners) and len(pts):
+            at = _nearest(pts, corners) <= 1e-9 * max(curve.spacing, 1e-300)
+        # Crossings of grid edges around one grid point can be closer than
+        # rounding: one of them is enough (corners are kept).
+        pts, at = _thin(pts, at, THIN * curve.spacing)
         if len(pts) < 3:
             continue
-        at = np.zeros(len(pts), bool)
-        if len(corners):
-            at = _nearest(pts, corners) <= 1e-9 * max(curve.spacing, 1e-300)
         label = f"{source} loop {k}"
         if not at.any():
             out.append(FeatureCurve(pts, True, source, project, label))
@@ -83,6 +86,23 @@ def _loops_as_curves(curve: BoundaryCurve, project: Callable, source: str) -> li
             if len(piece) >= 2:
                 out.append(FeatureCurve(piece, False, source, project, f"{label} piece {j}"))
     return out
+
+
+#: Traced curve points closer than this, times the tracing grid's spacing, are one.
+THIN = 1e-3
+
+
+def _thin(pts: np.ndarray, keep: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """A closed polyline without points within ``tol`` of the previous kept one
+    (``keep`` marks points that stay)."""
+    if len(pts) < 2:
+        return pts, keep
+    step = row_norms(pts - np.roll(pts, 1, axis=0))
+    # Runs of close points: keep each run's first point (or its kept one).
+    ok = (step > tol) | keep
+    if not ok.any():
+        ok[0] = True
+    return pts[ok], keep[ok]
 
 
 def _nearest(pts: np.ndarray, corners: np.ndarray) -> np.ndarray:

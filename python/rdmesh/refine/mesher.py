@@ -30,7 +30,7 @@ from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
 from ..topology.regions import describe_regions, regions
-from ..features.check import check_features
+from ..features.check import check_features, repair_sites
 from .check import check_restricted
 from .criteria import FacetCriteria
 from .floor import SpacingFloor
@@ -42,6 +42,10 @@ from .stages import Candidates
 from .timing import PhaseTimer
 
 log = logging.getLogger("rdmesh")
+
+#: Feature repairs (meshing again with smaller balls) at most, and the
+#: smallest angle next to a ball below which a ball is shrunk.
+MAX_REPAIRS, REPAIR_ANGLE = 3, 20.0
 
 #: Safety cap on rounds; smooth inputs need tens. Reaching it ends the run
 #: with the remaining points unresolved, like the spacing floor.
@@ -101,6 +105,18 @@ class Mesher:
         self.workers = workers
         self.certify = certify
         self.timer = PhaseTimer()
+        #: The surface may leave the ball; the mesh is the part inside.
+        self.clipped = topology == "manifold-with-boundary"
+        self.rounds = 0
+        #: Times the feature check failed and the run began again with smaller balls.
+        self.repairs = 0
+        self._fresh()
+        #: Debug mode: check the bookkeeping every round (small runs only).
+        self.check = os.environ.get("RDMESH_CHECK", "") not in ("", "0")
+
+    def _fresh(self) -> None:
+        """A new core, samples and pipeline (at the start, and for a repair)."""
+        surface = self.surface
         self.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
         box = clip_box(surface)
         if box is not None:  # checked by mesh_surface: inside the ball, with a boundary
@@ -108,31 +124,43 @@ class Mesher:
         self.samples = Samples(self.rdt)
         self.memo = LoopMemo()
         self.proofs = ProofMemo()
-        #: The surface may leave the ball; the mesh is the part inside.
-        self.clipped = topology == "manifold-with-boundary"
         self.pipeline = FacetPipeline(
-            self.rdt, surface, criteria, workers, self.timer, clipped=self.clipped
+            self.rdt, surface, self.criteria, self.workers, self.timer, clipped=self.clipped
         )
-        self.rounds = 0
-        #: Times the feature check failed and the run began again with smaller balls.
-        self.repairs = 0
         self.ball_ids = np.zeros(0, np.int64)
         self.unresolved: list[np.ndarray] = []
         self._snap: Snapshot | None = None
         self.stalled = False
-        #: Debug mode: check the bookkeeping every round (small runs only).
-        self.check = os.environ.get("RDMESH_CHECK", "") not in ("", "0")
 
     def run(self) -> SurfaceMesh:
-        """Mesh the surface; raises BudgetExceeded or Interrupted with the partial mesh."""
+        """Mesh the surface; raises BudgetExceeded or Interrupted with the partial mesh.
+
+        With protecting balls, a mesh whose feature check fails, or with a
+        triangle next to a ball below :data:`REPAIR_ANGLE`, is made again with
+        the balls there shrunk (DelPSC), at most :data:`MAX_REPAIRS` times.
+        """
         t0 = time.perf_counter()
         evals0 = self.surface.evaluations
         ivals0 = getattr(self.surface.f, "interval_evaluations", 0)
+        shrink: list[tuple[np.ndarray, np.ndarray]] = []
+        while True:
+            mesh = self._attempt(t0, evals0, ivals0, shrink)
+            sites = None if mesh.features is None else repair_sites(mesh, REPAIR_ANGLE)
+            if sites is None or not len(sites[0]) or self.repairs == MAX_REPAIRS:
+                return mesh
+            if self.budget.exceeded(len(mesh.vertices), time.perf_counter() - t0):
+                return mesh
+            log.info("features: shrinking balls at %d places and meshing again", len(sites[0]))
+            shrink.append(sites)
+            self.repairs += 1
+            self._fresh()
+
+    def _attempt(self, t0: float, evals0: int, ivals0: int, shrink: list) -> SurfaceMesh:
         rng = np.random.default_rng(self.seed)
         with self.timer("seeding"):
             plan = METHODS[self.method](
                 self.surface, self.criteria, self.topology, rng, self.seed_resolution,
-                self.certify, edge_size=self.edge_size,
+                self.certify, edge_size=self.edge_size, shrink=shrink,
             )  # fmt: skip
         self.plan = plan
         seeds, stop = plan.seeds, None

@@ -82,6 +82,7 @@ def boissonnat_oudot(
     resolution: int,
     certify: bool = False,
     edge_size: float | Sizing | None = None,
+    shrink: list | None = None,
 ) -> Plan:
     """Seeds from the grid scan (and, to certify, from the interval subdivision);
     stages as CGAL's Surface_mesher with its manifold tags.
@@ -118,7 +119,8 @@ def boissonnat_oudot(
             check_on_surface(surface, graph.curves)
             size = _edge_sizing(surface, criteria, edge_size)
             sheets = (scan.crossings, unit_normals(surface, scan.crossings))
-            balls = protect(graph, size, surface.radius, sheets)
+            balls = protect(graph, size, surface.radius, sheets,
+                            distance=criteria.distance_bound, shrink=shrink)  # fmt: skip
             # A seed in a ball would be hidden, or a vertex next to a curve.
             scan = GridScan(scan.seeds[~balls.inside(scan.seeds, SEED_CLEARANCE)],
                             scan.crossings, scan.spacing)  # fmt: skip
@@ -190,6 +192,7 @@ def topological_ball(
     resolution: int,
     certify: bool = False,
     edge_size: float | Sizing | None = None,
+    shrink: list | None = None,
 ) -> Plan:
     """Seeds from the grid scan (to certify, from the interval subdivision
     instead) plus the critical points of a random height; the
