@@ -121,8 +121,8 @@ def _with_extra_stage(monkeypatch, stage):
     """Append ``stage`` to the Boissonnat-Oudot method's last phase."""
     real = mesher_module.METHODS["boissonnat-oudot"]
 
-    def plan(*args):
-        p = real(*args)
+    def plan(*args, **kwargs):
+        p = real(*args, **kwargs)
         p.phases[-1].append(stage)
         return p
 

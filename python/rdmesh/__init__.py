@@ -20,6 +20,7 @@ from ._errors import (
     RefinementStalled,
 )
 from .api import mesh_surface
+from .features import FeatureError, MeshFeatures
 from .core import CGAL_VERSION
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria
@@ -39,9 +40,11 @@ __all__ = [
     "EmptySurfaceError",
     "ExpressionError",
     "FacetCriteria",
+    "FeatureError",
     "ImplicitSurface",
     "InternalCheckError",
     "Interrupted",
+    "MeshFeatures",
     "MeshInputError",
     "MeshSurface",
     "OracleError",

@@ -50,6 +50,10 @@ CURVE_GAP = 1 / 2.1
 CURVATURE = 0.5
 #: Spacing at most this fraction of the distance to another sheet.
 SHEET_GAP = 0.5
+#: Corner balls: radius at most this fraction of the spacing there, so that
+#: the first ball out, half a spacing beyond the corner ball, is at most a
+#: spacing from the corner.
+CORNER_FACTOR = 0.5
 #: Corner balls: radius at most this fraction of the distance to another corner.
 CORNER_GAP = 1 / 3
 #: Curve points within this fraction of a corner ball's radius are the corner's.
@@ -270,15 +274,16 @@ def _repair(balls: Balls, st: _State, graph: FeatureGraph) -> bool:
             broken = True
     _write_radii(balls, st, r)
     if len(p):
-        gap = d >= OVERLAP * (r[p[:, 0]] + r[p[:, 1]])
+        ra, rb = r[p[:, 0]], r[p[:, 1]]
+        gap = d >= ra + rb - LENS * np.minimum(ra, rb)
         if gap.any():
             broken = True
             _split(balls, st, graph, np.flatnonzero(gap), r)
     return broken
 
 
-#: Consecutive balls must overlap: distance below this times the sum of radii.
-OVERLAP = 0.95
+#: Consecutive balls must overlap by this fraction of the smaller radius.
+LENS = 0.25
 
 
 def _write_radii(balls: Balls, st: _State, r: np.ndarray) -> None:
@@ -300,14 +305,19 @@ def _split(balls: Balls, st: _State, graph: FeatureGraph, which: np.ndarray, r: 
         sb = _arc_of(balls, st, graph, b, i, start=False)
         if c.closed and sb <= sa:
             sb += c.length
-        span = sb - sa
+        # New centres in the stretch neither ball covers, a quarter spacing
+        # inside it, spaced at most the smaller radius.
         step = min(r[a], r[b])
-        n = max(1, int(np.ceil(span / max(step, 1e-300)))) - 1
-        n = max(n, 1)
-        s_new = sa + span * np.arange(1, n + 1) / (n + 1)
+        lo, hi = sa + r[a] + 0.25 * step, sb - r[b] - 0.25 * step
+        if hi <= lo:
+            s_new = np.array([0.5 * (sa + r[a] + sb - r[b])])
+            r_new = np.array([RADIUS_FACTOR * step])
+        else:
+            n = int(np.ceil((hi - lo) / max(step, 1e-300)))
+            s_new = lo + (hi - lo) * np.arange(n + 1) / max(n, 1)
+            r_new = np.full(len(s_new), RADIUS_FACTOR * min(step, (hi - lo) / max(n, 1) + 0.5 * step))
         if c.closed:
             s_new = np.mod(s_new, c.length)
-        r_new = np.full(n, RADIUS_FACTOR * span / (n + 1))
         add.setdefault(i, []).append((s_new, r_new))
     for i, parts in add.items():
         c = graph.curves[i]
@@ -399,7 +409,7 @@ def _place(graph, dense, edge_size, sheets, distance, shrink) -> _State:
     # Corner radii.
     r_corner = np.zeros(n_c)
     if n_c:
-        r_corner = np.asarray(edge_size(corners), float) * RADIUS_FACTOR
+        r_corner = np.asarray(edge_size(corners), float) * CORNER_FACTOR
         if n_c > 1:
             dc, _ = cKDTree(corners).query(corners, k=2)
             r_corner = np.minimum(r_corner, CORNER_GAP * dc[:, 1])
@@ -433,8 +443,8 @@ def _place(graph, dense, edge_size, sheets, distance, shrink) -> _State:
     for i, c in enumerate(curves):
         if not c.closed:
             a, b = ends[i]
-            r_corner[a] = min(r_corner[a], RADIUS_FACTOR * own[i][0])
-            r_corner[b] = min(r_corner[b], RADIUS_FACTOR * own[i][-1])
+            r_corner[a] = min(r_corner[a], CORNER_FACTOR * own[i][0])
+            r_corner[b] = min(r_corner[b], CORNER_FACTOR * own[i][-1])
     # Dense points well inside a corner ball need no ball of their own, and
     # the distance between curves meeting at the corner goes to 0 there
     # (the first ball's centre is at least about half the radius out).
@@ -446,13 +456,12 @@ def _place(graph, dense, edge_size, sheets, distance, shrink) -> _State:
         mine = slice(offsets[i], offsets[i + 1])
         gap = _curve_gap(d, i, c.closed, c.length, tree, all_c, all_s, in_corner, mine)
         h = np.minimum(own[i], gap)
-        if not c.closed:
-            a, b = ends[i]
-            # The spacing next to a corner fits its ball (radius = 0.9 spacing).
-            h[0] = min(h[0], r_corner[a] / RADIUS_FACTOR)
-            h[-1] = min(h[-1], r_corner[b] / RADIUS_FACTOR)
         h = _lipschitz(np.maximum(h, 1e-300), d.s, c.closed, c.length)
-        s_k = _positions(d.s, h, c.closed, c.length)
+        if c.closed:
+            s_k = _positions(d.s, h, True, c.length)
+        else:
+            a, b = ends[i]
+            s_k = _open_positions(d, h, corners[a], r_corner[a], corners[b], r_corner[b])
         x = c.on_curve(s_k)
         if c.closed:
             ring = np.r_[x, x[:1]]
@@ -475,21 +484,42 @@ def _at(s_k: np.ndarray, s: np.ndarray, h: np.ndarray, closed: bool, length: flo
 
 
 def _positions(s: np.ndarray, h: np.ndarray, closed: bool, length: float) -> np.ndarray:
-    """Arc positions of the centres strictly inside a curve (open: between its
-    end corners; closed: all, the first at arc 0), spaced about ``h``."""
-    if closed:
-        s_ = np.r_[s, length]
-        h_ = np.r_[h, h[:1]]
-    else:
-        s_, h_ = s, h
+    """Arc positions of the centres of a closed curve (the first at arc 0),
+    spaced about ``h``."""
+    s_ = np.r_[s, length]
+    h_ = np.r_[h, h[:1]]
     inv = 1.0 / h_
     steps = np.r_[0.0, np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(s_))]
     total = steps[-1]
-    if closed:
-        n = max(3, int(np.ceil(total)))
-        return np.interp(np.arange(n) * total / n, steps, s_)
-    n = max(1, int(np.ceil(total)))
-    return np.interp(np.arange(1, n) * total / n, steps, s_)
+    n = max(3, int(np.ceil(total)))
+    return np.interp(np.arange(n) * total / n, steps, s_)
+
+
+def _open_positions(d: _Dense, h: np.ndarray, ca, ra: float, cb, rb: float) -> np.ndarray:
+    """Arc positions of the centres of an open curve between corners ``ca``
+    and ``cb`` (radii ``ra``, ``rb``): from where the curve leaves the first
+    corner's ball to where it enters the last one's, the first and last a
+    quarter spacing beyond those points (so they overlap the corner balls),
+    spaced about ``h`` in between."""
+    out_a = np.flatnonzero(row_norms(d.x - ca) >= ra)
+    out_b = np.flatnonzero(row_norms(d.x - cb) >= rb)
+    if not len(out_a) or not len(out_b):
+        return np.zeros(0)
+    i0, i1 = out_a[0], out_b[-1]
+    if i0 >= i1:
+        return np.zeros(0)  # the corner balls cover the curve: they must overlap
+    s0, s1 = d.s[i0], d.s[i1]
+    first = s0 + 0.25 * h[i0]
+    last = s1 - 0.25 * h[i1]
+    if last <= first:
+        return np.array([0.5 * (s0 + s1)])
+    keep = (d.s > first) & (d.s < last)
+    s_ = np.r_[first, d.s[keep], last]
+    h_ = np.r_[np.interp(first, d.s, h), h[keep], np.interp(last, d.s, h)]
+    inv = 1.0 / h_
+    steps = np.r_[0.0, np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(s_))]
+    n = max(1, int(np.ceil(steps[-1])))
+    return np.interp(np.arange(n + 1) * steps[-1] / n, steps, s_)
 
 
 def _corner_curve_gap(corners, ends, tree, all_x, all_c) -> np.ndarray:

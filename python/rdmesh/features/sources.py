@@ -16,6 +16,7 @@ from .graph import (
     FeatureGraph,
     as_polylines,
     build_graph,
+    curve_of_polyline,
     given_curves,
 )
 
@@ -167,6 +168,9 @@ def feature_graph(surface, *, boundary: BoundaryCurve | None = None,
     box's creases (``volume_curve``, traced on the box)."""
     R = surface.radius
     curves = given_curves(as_polylines(getattr(surface, "features", None)), R)
+    for k, p in enumerate(getattr(surface, "sharp_curves", [])):
+        # The mesh's own edges: the polyline is the curve.
+        curves.append(curve_of_polyline(p, R, f"sharp edges {k}", "mesh"))
     extra = np.zeros((0, 3))
     if boundary is not None and len(boundary.dense):
         curves += boundary_curves(surface, boundary)

@@ -8,6 +8,7 @@ remeshes it with the angle bound, the sizing field and the distance bound.
 from __future__ import annotations
 
 import logging
+import math
 from typing import Any
 
 import numpy as np
@@ -15,6 +16,7 @@ from scipy.spatial import cKDTree
 
 from .._errors import MeshInputError
 from ..core import MeshDistance
+from ..features.sharp_edges import chain_edges, sharp_edges
 from .oracle import ImplicitSurface
 
 log = logging.getLogger("rdmesh")
@@ -48,6 +50,19 @@ DISTANCE_CAP = 0.1
 FOLD_ANGLE = 150.0
 #: Points evaluated per call of the C++ core (bounds the temporary arrays).
 _CHUNK = 1 << 18
+
+
+def _feature_angle(angle: Any) -> float | None:
+    """The checked ``feature_angle``: None, or a number of degrees in (0, 180)."""
+    if angle is None:
+        return None
+    try:
+        a = float(angle)
+    except (TypeError, ValueError):
+        a = math.nan
+    if isinstance(angle, bool) or not 0.0 < a < 180.0:
+        raise ValueError(f"feature_angle must be None or degrees in (0, 180), got {angle!r}")
+    return a
 
 
 def _as_arrays(mesh: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -160,6 +175,15 @@ class MeshSurface(ImplicitSurface):
         vertex dropped.
     name : str, default "mesh"
         A label for logs and reports.
+    feature_angle : float or None, default 60
+        Edges whose two faces' normals differ by at least this many degrees
+        are sharp (CGAL's ``detect_features`` rule); they are chained into
+        feature curves, split at corners (vertices with other than two sharp
+        edges, or where the chain turns by at least this angle), and kept in
+        the remesh by protecting balls (:mod:`rdmesh.features`). None: none.
+    features : list of (m, 3) array_like, or "none", optional
+        More feature curves (see :class:`ImplicitSurface`); "none" protects
+        nothing, sharp edges included.
 
     Attributes
     ----------
@@ -175,6 +199,11 @@ class MeshSurface(ImplicitSurface):
     folds : int
         Edges whose two faces' normals differ by more than 150 degrees
         (razor-thin wedges; see Notes). Nonzero counts are logged as a warning.
+    sharp_edges : (E, 2) int64
+        The sharp edges found with ``feature_angle`` (vertex index pairs).
+    sharp_curves : list of (k, 3) float64
+        Those edges chained into polylines (a closed loop repeats its first
+        point last).
 
     Raises
     ------
@@ -233,9 +262,12 @@ class MeshSurface(ImplicitSurface):
     distance of every part of the input, and keeps its topology, is sampled,
     not proven: it holds when the size bound is below the feature size of
     the shape the mesh approximates (scans, organic shapes). Sharp creases
-    (CAD models) are not kept: the triangles cut across each crease, so a
-    cube's edges and corners are chamfered, by about the distance bound
-    (measured: corners 1.5x, edges up to 1.1x). Razor-thin wedges (two faces
+    (CAD models) are kept through ``feature_angle``: each sharp-edge chain is
+    covered by protecting balls centred on the input's own edges, so the
+    output has a vertex at every corner and its edges follow every chain
+    (``SurfaceMesh.features`` reports the check). Creases flatter than the
+    feature angle are not protected and come out chamfered, by about the
+    distance bound. Razor-thin wedges (two faces
     folded onto each other, as when noise flips a sliver triangle) have no
     feature size at all: if the bounds are fine enough to resolve them, the
     facets whose dual crosses both sheets of a fold need refinement points
@@ -244,7 +276,14 @@ class MeshSurface(ImplicitSurface):
     closed.
     """
 
-    def __init__(self, mesh: Any, *, name: str = "mesh") -> None:
+    def __init__(
+        self,
+        mesh: Any,
+        *,
+        name: str = "mesh",
+        feature_angle: float | None = 60.0,
+        features: Any = None,
+    ) -> None:
         v, f = _clean(*_as_arrays(mesh))
         area = _area_vectors(v, f)
         if not np.any(np.linalg.norm(area, axis=1) > 0):
@@ -302,9 +341,31 @@ class MeshSurface(ImplicitSurface):
                     100 * self.ambiguous_share,
                 )
         self._orient_normals(v, f, norms)
+        self.feature_angle = _feature_angle(feature_angle)
+        self.sharp_edges, self.sharp_curves = self._sharp(v, f, features)
         super().__init__(
-            self._signed_distance, (centre, radius), gradient=self._gradient, name=name
-        )
+            self._signed_distance, (centre, radius), gradient=self._gradient, name=name,
+            features=features,
+        )  # fmt: skip
+
+    def _sharp(self, v, f, features) -> tuple[np.ndarray, list[np.ndarray]]:
+        """The sharp edges and their chains (none with ``feature_angle=None`` or
+        ``features="none"``)."""
+        if self.feature_angle is None or (isinstance(features, str) and features == "none"):
+            return np.zeros((0, 2), np.int64), []
+        # Unit normals as the faces are oriented (the outward-flipped ones are
+        # for the gradient only).
+        a = _area_vectors(v, f)
+        n = a / np.maximum(np.linalg.norm(a, axis=1), 1e-300)[:, None]
+        edges = sharp_edges(f, n, self.feature_angle)
+        chains, closed = chain_edges(v, edges, self.feature_angle)
+        curves = [v[np.r_[c, c[:1]]] if cl else v[c] for c, cl in zip(chains, closed, strict=True)]
+        if len(edges):
+            log.info(
+                "MeshSurface: %d sharp edges (normals %g degrees apart or more) in %d curves",
+                len(edges), self.feature_angle, len(curves),
+            )  # fmt: skip
+        return edges, curves
 
     def _orient_normals(self, v: np.ndarray, f: np.ndarray, norms: np.ndarray) -> None:
         """Flip the normals (used for the gradient on the mesh) of faces whose front is inside.

@@ -255,13 +255,14 @@ def _features(features: Any, radius: float) -> list[np.ndarray] | str:
     refused when the surface is made."""
     if features is None or (isinstance(features, str) and features == "auto"):
         return []
+    from ..features.graph import FeatureError, as_polylines, build_graph, given_curves
+
     if isinstance(features, str):
         if features == "none":
             return "none"
-        raise ValueError(
+        raise FeatureError(
             f"features must be a list of (m, 3) polylines, None or 'none', got {features!r}"
         )
-    from ..features.graph import as_polylines, build_graph, given_curves
 
     polylines = as_polylines(features)
     build_graph(given_curves(polylines, radius), radius)

@@ -1,0 +1,115 @@
+"""A triangle mesh's sharp edges, chained into feature curves.
+
+An edge is sharp when its two faces' normals differ by at least the feature
+angle (CGAL's ``detect_features`` rule). Sharp edges are chained into
+polylines split at corners: vertices with other than two sharp edges, and
+vertices where the chain turns by at least the feature angle.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._vectors import row_norms
+
+
+def sharp_edges(faces: np.ndarray, normals: np.ndarray, angle: float) -> np.ndarray:
+    """Edges ``(E, 2)`` (sorted vertex pairs) shared by exactly two faces whose
+    unit ``normals`` differ by at least ``angle`` degrees."""
+    f = np.asarray(faces, dtype=np.int64)
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    owner = np.tile(np.arange(len(f)), 3)
+    e = np.sort(e, axis=1)
+    order = np.lexsort((e[:, 1], e[:, 0]))
+    e, owner = e[order], owner[order]
+    same = np.all(e[1:] == e[:-1], axis=1)
+    # Pairs (i, i + 1) of the same edge, and only two faces on it.
+    first = np.flatnonzero(same)
+    triple = np.zeros(len(first), bool)
+    if len(first):
+        nxt = first + 2
+        triple |= (nxt < len(e)) & np.all(e[np.minimum(nxt, len(e) - 1)] == e[first], axis=1)
+        prv = first - 1
+        triple |= (prv >= 0) & np.all(e[np.maximum(prv, 0)] == e[first], axis=1)
+    first = first[~triple]
+    na, nb = normals[owner[first]], normals[owner[first + 1]]
+    cos = np.einsum("ij,ij->i", na, nb)
+    sharp = cos <= np.cos(np.radians(angle)) + 1e-12
+    return e[first[sharp]]
+
+
+def chain_edges(
+    vertices: np.ndarray, edges: np.ndarray, turn: float
+) -> tuple[list[np.ndarray], list[bool]]:
+    """Sharp edges as polylines in order, split at corners (vertices of other
+    than two sharp edges, or turning by at least ``turn`` degrees).
+
+    Returns the polylines (vertex index arrays) and whether each is a closed
+    loop (its first vertex not repeated)."""
+    if len(edges) == 0:
+        return [], []
+    n = len(vertices)
+    deg = np.bincount(edges.ravel(), minlength=n)
+    # The two sharp neighbours of each vertex of degree 2.
+    src = np.concatenate([edges[:, 0], edges[:, 1]])
+    dst = np.concatenate([edges[:, 1], edges[:, 0]])
+    o = np.lexsort((dst, src))
+    src, dst = src[o], dst[o]
+    start = np.searchsorted(src, np.arange(n))
+    two = np.flatnonzero(deg == 2)
+    nb = np.full((n, 2), -1, np.int64)
+    nb[two, 0] = dst[start[two]]
+    nb[two, 1] = dst[start[two] + 1]
+    corner = (deg > 0) & (deg != 2)
+    if len(two):
+        u = vertices[two] - vertices[nb[two, 0]]
+        w = vertices[nb[two, 1]] - vertices[two]
+        cos = np.einsum("ij,ij->i", u, w) / np.maximum(row_norms(u) * row_norms(w), 1e-300)
+        corner[two[cos <= np.cos(np.radians(turn))]] = True
+    polylines, closed = [], []
+    # Open chains: from each corner along each of its sharp edges.
+    c_src = src[corner[src]]
+    c_dst = dst[corner[src]]
+    walks = [list(pair) for pair in zip(c_src.tolist(), c_dst.tolist(), strict=True)]
+    done_edges = set()
+    for w in walks:
+        a, b = w
+        key = (min(a, b), max(a, b))
+        if key in done_edges and corner[b]:
+            continue
+        path = [a, b]
+        prev, cur = a, b
+        while not corner[cur]:
+            n0, n1 = nb[cur]
+            nxt = n0 if n0 != prev else n1
+            path.append(int(nxt))
+            prev, cur = cur, int(nxt)
+        key_end = (min(path[-2], path[-1]), max(path[-2], path[-1]))
+        if key in done_edges or key_end in done_edges:
+            continue
+        for p, q in zip(path[:-1], path[1:], strict=True):
+            done_edges.add((min(p, q), max(p, q)))
+        polylines.append(np.array(path, np.int64))
+        closed.append(False)
+    # Loops without a corner.
+    left = np.zeros(n, bool)
+    for p in polylines:
+        left[p] = True
+    rest = np.flatnonzero((deg == 2) & ~corner & ~left)
+    seen = np.zeros(n, bool)
+    for v0 in rest.tolist():
+        if seen[v0]:
+            continue
+        path, prev, cur = [v0], -1, v0
+        seen[v0] = True
+        while True:
+            n0, n1 = nb[cur]
+            nxt = int(n0 if n0 != prev else n1)
+            if nxt == v0:
+                break
+            path.append(nxt)
+            seen[nxt] = True
+            prev, cur = cur, nxt
+        polylines.append(np.array(path, np.int64))
+        closed.append(True)
+    return polylines, closed

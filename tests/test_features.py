@@ -1,0 +1,258 @@
+"""Feature curves kept by protecting balls (issue 27): given polylines, clip
+boundaries, a volume's box and a mesh's sharp edges; the feature check; bad
+input. Every property is recomputed from the output arrays."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rdmesh
+from clipped_surfaces import plane
+from meshcheck import boundary_edges, euler_per_component
+from rdmesh.features import FeatureError
+from rdmesh.refine.criteria import min_angles
+
+CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+EDGES = [
+    np.array([CORNERS[i], CORNERS[j]])
+    for i in range(8)
+    for j in range(i + 1, 8)
+    if np.sum(CORNERS[i] != CORNERS[j]) == 1
+]
+
+
+def box(p):
+    x, y, z = np.abs(p).T
+    return np.maximum(np.maximum(x, y), z) - 1.0
+
+
+def on_box_edge(p, tol=1e-12):
+    """Points on an edge of the cube [-1, 1]^3: two coordinates at +-1."""
+    return (np.abs(np.abs(p) - 1.0) <= tol).sum(axis=1) >= 2
+
+
+def edge_coverage(m):
+    """Share of the 12 edges' length (24) covered by mesh edges lying on them."""
+    f = m.faces
+    e = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1),
+                  axis=0)  # fmt: skip
+    a, b = m.vertices[e[:, 0]], m.vertices[e[:, 1]]
+    on = on_box_edge(a) & on_box_edge(b) & on_box_edge(0.5 * (a + b))
+    return float(np.linalg.norm(b - a, axis=1)[on].sum() / 24.0)
+
+
+def surface_gap(m, f, n=12):
+    """Largest |f| at points spread over every triangle."""
+    w = np.random.default_rng(0).dirichlet([1, 1, 1], size=n)
+    pts = np.einsum("kj,fjd->fkd", w, m.vertices[m.faces]).reshape(-1, 3)
+    return float(np.abs(f(pts)).max())
+
+
+@pytest.fixture(scope="module")
+def protected_box():
+    s = rdmesh.ImplicitSurface(box, ((0, 0, 0), 2.0), features=EDGES, name="box")
+    return rdmesh.mesh_surface(s, radius_bound=0.1, distance_bound=0.01)
+
+
+def test_a_box_with_its_edges_given_keeps_them_exactly(protected_box):
+    m = protected_box
+    assert m.complete
+    assert m.features.held
+    assert len(m.features.curves) == 12 and len(m.features.corners) == 8
+    # Every corner is a vertex, every edge is covered by mesh edges on it.
+    for c in CORNERS:
+        assert np.linalg.norm(m.vertices - c, axis=1).min() == 0.0
+    assert edge_coverage(m) == pytest.approx(1.0, abs=1e-12)
+    # The balls' centres are the vertices on the edges, exactly there.
+    balls = m.weights > 0
+    assert np.array_equal(balls, on_box_edge(m.vertices, 1e-9))
+    # No chamfer: every triangle lies in a face of the cube.
+    assert surface_gap(m, box) <= 1e-12
+    assert np.abs(box(m.vertices)).max() <= 1e-12
+    assert m.is_closed_manifold() and euler_per_component(m.faces, len(m.vertices)) == [2]
+
+
+def test_the_angle_bound_holds_away_from_the_balls(protected_box):
+    m = protected_box
+    at_ball = (m.weights > 0)[m.faces].any(axis=1)
+    assert m.angles[~at_ball].min() >= 30.0 - 1e-9
+    # Relaxed next to the balls, with a floor of 20 degrees (measured: 20.0
+    # to 21.5 on the box; not proven).
+    assert m.angles[at_ball].min() >= 20.0 - 1e-9
+    # The size bound away from the balls.
+    r = m.ball_radii
+    assert r[~at_ball].max() <= 0.1 * (1 + 1e-9)
+
+
+def test_without_features_the_box_is_chamfered():
+    s = rdmesh.ImplicitSurface(box, ((0, 0, 0), 2.0), features="none")
+    m = rdmesh.mesh_surface(s, radius_bound=0.1, distance_bound=0.01)
+    assert m.features is None and m.weights is None
+    assert edge_coverage(m) < 0.05
+    assert surface_gap(m, box) > 1e-3
+
+
+def test_the_same_seed_gives_the_same_protected_mesh(protected_box):
+    s = rdmesh.ImplicitSurface(box, ((0, 0, 0), 2.0), features=EDGES)
+    m = rdmesh.mesh_surface(s, radius_bound=0.1, distance_bound=0.01)
+    assert np.array_equal(m.vertices, protected_box.vertices)
+    assert np.array_equal(m.faces, protected_box.faces)
+
+
+def test_the_report_and_summary_say_what_was_kept(protected_box):
+    rep = protected_box.report["features"]
+    assert rep["held"] is True and rep["level"] == "proven"
+    assert rep["edges_kept"] == rep["edges"] > 0 and rep["corners_kept"] == 8
+    assert rep["sources"] == ["given"]
+    assert "features: 12 curves, 8 corners kept" in protected_box.summary()
+
+
+def test_edge_size_sets_the_spacing_along_the_curves():
+    s = rdmesh.ImplicitSurface(box, ((0, 0, 0), 2.0), features=EDGES)
+    m = rdmesh.mesh_surface(s, radius_bound=0.15, distance_bound=0.02, edge_size=0.07)
+    assert m.features.held
+    f = m.faces
+    e = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1),
+                  axis=0)  # fmt: skip
+    a, b = m.vertices[e[:, 0]], m.vertices[e[:, 1]]
+    on = on_box_edge(a) & on_box_edge(b) & on_box_edge(0.5 * (a + b))
+    length = np.linalg.norm(b - a, axis=1)[on]
+    assert length.max() <= 0.07 * (1 + 1e-9)
+    assert length.sum() == pytest.approx(24.0, rel=1e-9)
+
+
+def test_a_closed_loop_given_by_repeating_its_first_point():
+    """A cylinder's rims, each a closed polyline (64 chords of the circle)."""
+
+    def cylinder(p):
+        x, y, z = p.T
+        return np.maximum(np.hypot(x, y) - 0.8, np.abs(z) - 0.6)
+
+    t = np.linspace(0, 2 * np.pi, 65)
+    rims = [np.c_[0.8 * np.cos(t), 0.8 * np.sin(t), np.full(65, h)] for h in (-0.6, 0.6)]
+    rims[0][-1] = rims[0][0]  # exactly closed
+    s = rdmesh.ImplicitSurface(cylinder, ((0, 0, 0), 1.5), features=rims)
+    m = rdmesh.mesh_surface(s, radius_bound=0.1, distance_bound=0.01)
+    assert m.features.held and len(m.features.curves) == 2
+    assert all(c[0] == c[-1] for c in m.features.curves)  # loops
+    assert len(m.features.corners) == 0
+    assert m.is_closed_manifold() and euler_per_component(m.faces, len(m.vertices)) == [2]
+
+
+def test_curves_meeting_at_an_end_on_another_curve_split_it():
+    """Two box edges given as one polyline through a corner, plus an edge
+    ending at that corner: the polyline is split there (a T-junction)."""
+    c = CORNERS
+    through = np.array([c[0], c[1], c[3]])  # two edges turning at c[1]
+    rest = [e for e in EDGES if not (
+        {tuple(e[0]), tuple(e[1])} <= {tuple(c[0]), tuple(c[1])}
+        or {tuple(e[0]), tuple(e[1])} <= {tuple(c[1]), tuple(c[3])}
+    )]  # fmt: skip
+    s = rdmesh.ImplicitSurface(box, ((0, 0, 0), 2.0), features=[through, *rest])
+    m = rdmesh.mesh_surface(s, radius_bound=0.15, distance_bound=0.02)
+    assert m.features.held
+    assert len(m.features.curves) == 12 and len(m.features.corners) == 8
+
+
+@pytest.mark.parametrize(
+    "features, match",
+    [
+        ([np.array([[0.0, 0.0, 1.0], [np.nan, 0.0, 1.0]])], r"features\[0\] has a non-finite"),
+        ([np.array([[0.0, 0.0, 1.0]])], r"features\[0\] has 1 point"),
+        ([np.array([[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]])], r"features\[0\] has fewer than two"),
+        ([np.zeros((3, 2))], r"features\[0\] must have shape \(m, 3\)"),
+        ([[["a", "b", "c"], [1, 2, 3]]], r"features\[0\] is not an array of numbers"),
+        (np.zeros((4, 3)), "wrap it in a list"),
+        (42, "list of"),
+        ("some", "features must be"),
+        # Two face diagonals of the top face cross at its centre.
+        (
+            [np.array([[-1.0, -1, 1], [1, 1, 1]]), np.array([[-1.0, 1, 1], [1, -1, 1]])],
+            r"features\[0\] and features\[1\] cross",
+        ),
+        ([np.array([[-1.0, -1, 1], [1, 1, 1], [1, -1, 1], [-1, 1, 1]])], "crosses itself"),
+    ],
+)
+def test_bad_feature_curves_are_refused_when_the_surface_is_made(features, match):
+    with pytest.raises(FeatureError, match=match):
+        rdmesh.ImplicitSurface(box, ((0, 0, 0), 2.0), features=features)
+
+
+def test_a_curve_off_the_surface_is_refused_when_meshing():
+    s = rdmesh.ImplicitSurface(box, ((0, 0, 0), 2.0), features=[np.array([[0, 0, 0.5], [1, 1, 1]])])
+    with pytest.raises(FeatureError, match=r"features\[0\] is not on the surface"):
+        rdmesh.mesh_surface(s, radius_bound=0.2)
+
+
+def test_feature_error_is_a_value_error_and_exported():
+    assert issubclass(rdmesh.FeatureError, ValueError)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"method": "topological-ball"}, "boissonnat-oudot"),
+        ({"edge_size": 0.0}, "edge_size must be a positive number"),
+        ({"edge_size": -1.0}, "edge_size must be a positive number"),
+    ],
+)
+def test_bad_options_with_features(kwargs, match):
+    s = rdmesh.ImplicitSurface(box, ((0, 0, 0), 2.0), features=EDGES)
+    with pytest.raises(ValueError, match=match):
+        rdmesh.mesh_surface(s, radius_bound=0.2, **kwargs)
+
+
+def test_a_ball_cut_by_its_volume_box_keeps_the_circles():
+    n = 32
+    g = np.linspace(-1, 1, n)
+    x, y, z = np.meshgrid(g, g, g, indexing="ij")
+    vol = 1.3 - np.sqrt(x**2 + y**2 + z**2)
+    s = rdmesh.VolumeSurface(vol, spacing=(2 / (n - 1),) * 3, origin=(-1, -1, -1), isovalue=0.0)
+    m = rdmesh.mesh_surface(s, radius_bound=0.1, distance_bound=0.01)
+    assert m.complete and m.features.held
+    assert m.report["features"]["sources"] == ["volume box"]
+    assert len(m.features.curves) == 6
+    assert m.is_closed_manifold() and euler_per_component(m.faces, len(m.vertices)) == [2]
+    # Each circle's edges: on a face and on the isosurface, joined in a loop.
+    v = m.vertices
+    for c in m.features.curves:
+        assert c[0] == c[-1] and (c >= 0).all()
+        on_face = (np.abs(np.abs(v[c]) - 1.0) <= 1e-12).any(axis=1)
+        assert on_face.all()
+        assert np.abs(s.f_volume(v[c])).max() <= 1e-9
+
+
+def test_a_cube_mesh_is_remeshed_with_its_edges_and_corners():
+    tri = np.array([
+        [0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+        [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3],
+    ])  # fmt: skip
+    s = rdmesh.MeshSurface((CORNERS, tri))
+    assert len(s.sharp_edges) == 12 and len(s.sharp_curves) == 12
+    m = rdmesh.mesh_surface(s, radius_bound=0.2, distance_bound=0.02)
+    assert m.features.held and m.report["features"]["sources"] == ["mesh"]
+    assert edge_coverage(m) == pytest.approx(1.0, abs=1e-12)
+    assert m.is_closed_manifold() and euler_per_component(m.faces, len(m.vertices)) == [2]
+    plain = rdmesh.MeshSurface((CORNERS, tri), feature_angle=None)
+    assert len(plain.sharp_edges) == 0
+
+
+@pytest.mark.parametrize("angle", [0.0, 180.0, -5.0, "x", True])
+def test_a_bad_feature_angle_is_refused(angle):
+    tri = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                    [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])  # fmt: skip
+    with pytest.raises(ValueError, match="feature_angle"):
+        rdmesh.MeshSurface((CORNERS, tri), feature_angle=angle)
+
+
+def test_a_clipped_plane_has_its_boundary_protected():
+    s = rdmesh.ImplicitSurface(plane, ((0, 0, 0), 1.0))
+    m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.1)
+    assert m.features.held and m.report["features"]["sources"] == ["clip boundary"]
+    edges, bv = boundary_edges(m.faces)
+    assert len(edges) == m.features.edges
+    # Boundary vertices are the balls' centres, on the sphere and the plane.
+    assert np.array_equal(np.unique(bv), np.flatnonzero(m.weights > 0))
+    assert np.abs(np.linalg.norm(m.vertices[bv], axis=1) - 1).max() <= 1e-12
+    assert min_angles(m.vertices[m.faces]).min() >= 20.0
+    assert m.topology()["euler"] == [1] and m.report["boundary"]["loops_match"]

@@ -1,0 +1,164 @@
+"""Protecting balls (rdmesh.features.protect) and the weighted core: the
+invariants hold on the balls themselves, the core keeps consecutive centres
+as edges and never lets a ball hide a vertex."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rdmesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from rdmesh import core
+from rdmesh.features.graph import build_graph, curve_of_polyline
+from rdmesh.features.protect import protect
+from rdmesh.refine.criteria import relaxed
+
+CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+EDGES = [
+    np.array([CORNERS[i], CORNERS[j]])
+    for i in range(8)
+    for j in range(i + 1, 8)
+    if np.sum(CORNERS[i] != CORNERS[j]) == 1
+]
+
+
+def graph_of(polylines, radius=2.0):
+    return build_graph(
+        [curve_of_polyline(p, radius, f"features[{i}]", "given") for i, p in enumerate(polylines)],
+        radius,
+    )
+
+
+def check_invariants(balls):
+    """Consecutive balls overlap without holding each other's centre; every
+    other pair is disjoint."""
+    c, r = balls.centres, balls.radii
+    i, j = balls.pairs[:, 0], balls.pairs[:, 1]
+    d = np.linalg.norm(c[i] - c[j], axis=1)
+    assert (d < r[i] + r[j]).all()
+    assert (d > np.maximum(r[i], r[j])).all()
+    n = len(c)
+    dd = np.linalg.norm(c[:, None] - c[None], axis=2)
+    near = dd <= r[:, None] + r[None, :]
+    np.fill_diagonal(near, False)
+    near[i, j] = near[j, i] = False
+    assert not near.any()
+
+
+@settings(max_examples=15, deadline=None)
+@given(size=st.floats(0.03, 0.6), twist=st.floats(0.0, 1.0))
+def test_balls_on_the_cube_edges_keep_the_invariants(size, twist):
+    # A curved size field: smaller towards one corner.
+    def field(x):
+        return size * (1.0 - 0.5 * twist * np.linalg.norm(x - 1.0, axis=1) / 3.5)
+
+    g = graph_of(EDGES)
+    b = protect(g, field, 2.0)
+    check_invariants(b)
+    # Centres on the edges (the polylines), corners at the corners.
+    on = (np.abs(np.abs(b.centres) - 1) <= 1e-12).sum(axis=1) >= 2
+    assert on.all()
+    assert np.array_equal(b.centres[b.corner >= 0], g.corners)
+    # The spacing along each curve is at most the field (edge_size).
+    p = b.pairs
+    d = np.linalg.norm(b.centres[p[:, 0]] - b.centres[p[:, 1]], axis=1)
+    mid = 0.5 * (b.centres[p[:, 0]] + b.centres[p[:, 1]])
+    assert (d <= field(mid) * 1.25).all()
+
+
+@settings(max_examples=15, deadline=None)
+@given(angle=st.floats(10.0, 170.0))
+def test_curves_meeting_at_small_angles_get_disjoint_balls(angle):
+    a = np.radians(angle)
+    o = np.zeros(3)
+    g = graph_of([np.array([o, [1.0, 0, 0]]), np.array([o, [np.cos(a), np.sin(a), 0]])])
+    b = protect(g, lambda x: np.full(len(x), 0.2), 2.0)
+    check_invariants(b)
+
+
+def test_a_circle_is_one_closed_chain():
+    t = np.linspace(0, 2 * np.pi, 200)
+    circle = np.c_[np.cos(t), np.sin(t), np.zeros_like(t)]
+    circle[-1] = circle[0]
+    b = protect(graph_of([circle]), lambda x: np.full(len(x), 0.3), 2.0)
+    check_invariants(b)
+    assert len(b.chains) == 1 and b.chains[0][0] == b.chains[0][-1]
+    # Centres on the polyline (a 199-gon inscribed in the unit circle).
+    r = np.linalg.norm(b.centres, axis=1)
+    assert r.max() <= 1 + 1e-12 and r.min() >= np.cos(np.pi / 199) - 1e-12
+
+
+def test_the_distance_bound_shortens_the_chords():
+    t = np.linspace(0, 2 * np.pi, 400)
+    circle = 0.5 * np.c_[np.cos(t), np.sin(t), np.zeros_like(t)]
+    circle[-1] = circle[0]
+    b = protect(graph_of([circle]), lambda x: np.full(len(x), 0.3), 2.0, distance=1e-3)
+    p = b.pairs
+    mid = 0.5 * (b.centres[p[:, 0]] + b.centres[p[:, 1]])
+    sagitta = 0.5 - np.linalg.norm(mid, axis=1)
+    assert sagitta.max() <= 1e-3 * 1.05
+
+
+def test_balls_too_close_to_protect_are_refused():
+    g = graph_of([np.array([[0, 0, 0], [1.0, 0, 0]]), np.array([[0, 1e-8, 0.0], [1, 1e-8, 0]])])
+    with pytest.raises(rdmesh.FeatureError, match="cannot protect"):
+        protect(g, lambda x: np.full(len(x), 0.1), 2.0)
+
+
+def test_the_core_keeps_consecutive_centres_as_edges():
+    g = graph_of(EDGES)
+    b = protect(g, lambda x: np.full(len(x), 0.2), 2.0)
+    rdt = core.RestrictedDelaunay(np.zeros(3), 2.0)
+    ids = rdt.insert(b.centres, b.weights)
+    assert (ids >= 0).all()
+    assert np.allclose(rdt.weights()[ids], b.weights)
+    # Many samples on the cube's faces, none inside a ball.
+    rng = np.random.default_rng(1)
+    pts = rng.uniform(-1, 1, (4000, 3))
+    axis = rng.integers(0, 3, 4000)
+    pts[np.arange(4000), axis] = np.sign(rng.uniform(-1, 1, 4000))
+    pts = pts[~b.inside(pts)]
+    new = rdt.insert(pts)
+    assert (new >= 0).all()
+    rdt.check()  # a valid regular triangulation
+    off, adj = rdt.neighbours(ids[b.pairs[:, 0]])
+    for k, (u, v) in enumerate(b.pairs):
+        assert ids[v] in adj[off[k] : off[k + 1]]
+
+
+def test_the_core_refuses_a_ball_that_hides_a_vertex():
+    rdt = core.RestrictedDelaunay(np.zeros(3), 2.0)
+    rdt.insert(np.array([[0.0, 0.0, 0.1]]))
+    with pytest.raises(ValueError, match="would hide"):
+        rdt.insert(np.array([[0.0, 0.0, 0.0]]), np.array([0.25]))
+    with pytest.raises(ValueError, match="weight"):
+        rdt.insert(np.array([[0.5, 0.0, 0.0]]), np.array([-1.0]))
+    with pytest.raises(ValueError, match="weights must have shape"):
+        rdt.insert(np.array([[0.5, 0.0, 0.0]]), np.array([1.0, 2.0]))
+
+
+def test_a_sample_deep_in_a_ball_is_hidden():
+    rdt = core.RestrictedDelaunay(np.zeros(3), 2.0)
+    rdt.insert(np.array([[0.0, 0.0, 0.0]]), np.array([0.25]))
+    ids = rdt.insert(np.array([[0.0, 0.0, 0.05], [1.0, 0.0, 0.0]]))
+    assert ids[0] == -1 and ids[1] >= 0
+    assert rdt.number_of_samples == 2
+
+
+def test_mesh_3_relaxation_next_to_balls():
+    # One weighted vertex, its neighbours at 1.5 radii: the smallest sphere
+    # orthogonal to the ball and a neighbour has (d^2 - w)^2 / (4 d^2) =
+    # (2.25 - 1)^2 / 9 = 0.17 times w: below 0.64 and 1 (size, angle), above
+    # 0.04 (distance).
+    corners = np.array([[[0, 0, 0], [1.5, 0, 0], [0, 1.5, 0]]], float)
+    w = np.array([[1.0, 0.0, 0.0]])
+    r = relaxed(corners, w)
+    assert r.size[0] and r.angle[0] and not r.distance[0] and not r.never[0]
+    # Three balls sharing a point: never refined.
+    corners = np.array([[[0, 0, 0], [1.0, 0, 0], [0.5, 0.8, 0]]])
+    r = relaxed(corners, np.full((1, 3), 0.5))
+    assert r.never[0]
+    # No weight: nothing relaxed.
+    r = relaxed(corners, np.zeros((1, 3)))
+    assert not (r.size | r.angle | r.distance | r.never).any()
