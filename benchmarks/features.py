@@ -177,6 +177,55 @@ def _mesh_case(name: str, shape_name: str, feature_angle: float, cad_size: float
     )
 
 
+#: The volume case: a ball of this radius sampled on VOLUME_N^3 points of
+#: [-1, 1]^3 (so the box cuts it in six circles), meshed as a VolumeSurface
+#: closed by its box.
+VOLUME_BALL, VOLUME_N = 1.3, 48
+
+
+def _volume_case() -> Case:
+    """A ball cut by its volume's box: six circles of radius sqrt(1.3^2 - 1)
+    on the faces, each given to the metrics as a 2048-chord polyline (the
+    mesh follows the cubic interpolant's curve, about 1e-3 off the exact
+    circle, so the tolerance is 2e-3)."""
+    r = float(np.sqrt(VOLUME_BALL**2 - 1.0))
+    t = np.linspace(0.0, 2 * np.pi, 2049)
+    curves = []
+    for axis in range(3):
+        others = [k for k in range(3) if k != axis]
+        for side in (-1.0, 1.0):
+            p = np.zeros((len(t), 3))
+            p[:, axis] = side
+            p[:, others[0]] = r * np.cos(t)
+            p[:, others[1]] = r * np.sin(t)
+            p[-1] = p[0]
+            curves.append(fm.Polyline(p))
+
+    def sdf(q: np.ndarray) -> np.ndarray:
+        ball = np.linalg.norm(q, axis=1) - VOLUME_BALL
+        return np.maximum(ball, np.abs(q).max(axis=1) - 1.0)
+
+    return Case(
+        name="volume_ball", kind="volume", curves=curves, corners=np.zeros((0, 3)), tol=2e-3,
+        angle=30.0, radius=0.1, distance=0.01, edge_size=0.1, expected_genus=0,
+        description=f"ball of radius {VOLUME_BALL} sampled on {VOLUME_N}^3 points of [-1, 1]^3, "
+        "closed by the box: 6 circles", sdf=sdf,
+    )  # fmt: skip
+
+
+def volume_surface(features=None):
+    """The volume case's VolumeSurface."""
+    import rdmesh
+
+    g = np.linspace(-1.0, 1.0, VOLUME_N)
+    x, y, z = np.meshgrid(g, g, g, indexing="ij")
+    vol = VOLUME_BALL - np.sqrt(x * x + y * y + z * z)
+    return rdmesh.VolumeSurface(
+        vol, spacing=(2.0 / (VOLUME_N - 1),) * 3, origin=(-1.0, -1.0, -1.0), isovalue=0.0,
+        features=features,
+    )  # fmt: skip
+
+
 def build_cases(cad_size: float = 0.01) -> dict[str, Callable[[], Case]]:
     """The cases by name, as constructors (a case is built only when run)."""
     cs = cad_shapes
@@ -206,6 +255,7 @@ def build_cases(cad_size: float = 0.01) -> dict[str, Callable[[], Case]]:
         "fillet_chamfer@40": lambda: _mesh_case(
             "fillet_chamfer@40", "fillet_chamfer", 40.0, cad_size
         ),
+        "volume_ball": _volume_case,
     }
 
 
@@ -359,10 +409,12 @@ def _rdmesh_run(surface, case: Case, features: bool) -> MeshRun:
     return MeshRun(m.vertices, m.faces, seconds, info)
 
 
-@register("rdmesh", kinds=("implicit", "mesh"), label="rdmesh, curves protected")
+@register("rdmesh", kinds=("implicit", "mesh", "volume"), label="rdmesh, curves protected")
 def run_rdmesh(case: Case, work: Path, timeout: float) -> MeshRun:
     import rdmesh
 
+    if case.kind == "volume":
+        return _rdmesh_run(volume_surface(), case, True)
     if case.kind == "implicit":
         s = rdmesh.ImplicitSurface(case.f, case.bounding_sphere, features=case.polylines)
     else:
@@ -372,10 +424,12 @@ def run_rdmesh(case: Case, work: Path, timeout: float) -> MeshRun:
     return _rdmesh_run(s, case, True)
 
 
-@register("rdmesh_plain", kinds=("implicit", "mesh"), label="rdmesh, nothing protected")
+@register("rdmesh_plain", kinds=("implicit", "mesh", "volume"), label="rdmesh, nothing protected")
 def run_rdmesh_plain(case: Case, work: Path, timeout: float) -> MeshRun:
     import rdmesh
 
+    if case.kind == "volume":
+        return _rdmesh_run(volume_surface("none"), case, False)
     if case.kind == "implicit":
         s = rdmesh.ImplicitSurface(case.f, case.bounding_sphere, features="none")
     else:
@@ -413,7 +467,7 @@ def measure(case: Case, run: MeshRun, *, hausdorff_samples: int = 200_000) -> di
         ]
         if sharp and len(sharp) < len(case.curves):
             out["coverage_detectable"] = fm.crease_coverage(v, f, sharp, case.tol)["coverage"]
-    if case.kind == "implicit":
+    if case.kind in ("implicit", "volume"):
         out["surface_distance"] = fm.surface_distance(v, f, case.sdf)
         out["distance_over_bound"] = out["surface_distance"]["max"] / case.distance
     else:

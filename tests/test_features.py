@@ -4,6 +4,8 @@ input. Every property is recomputed from the output arrays."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import rdmesh
@@ -256,3 +258,92 @@ def test_a_clipped_plane_has_its_boundary_protected():
     assert np.abs(np.linalg.norm(m.vertices[bv], axis=1) - 1).max() <= 1e-12
     assert min_angles(m.vertices[m.faces]).min() >= 20.0
     assert m.topology()["euler"] == [1] and m.report["boundary"]["loops_match"]
+
+
+# -- the command line ---------------------------------------------------------------------
+
+
+def _write_polylines(path, polylines):
+    with open(path, "w", encoding="utf-8") as fh:
+        for p in polylines:
+            fh.write(f"{len(p)} " + " ".join(f"{x:.17g}" for x in np.ravel(p)) + "\n")
+
+
+def test_cli_mesh_keeps_the_curves_of_a_polylines_file(tmp_path, capsys):
+    from rdmesh import cli
+
+    feats = tmp_path / "edges.polylines.txt"
+    _write_polylines(feats, EDGES)
+    out = tmp_path / "box.ply"
+    expr = "max(max(abs(x), abs(y)), abs(z)) - 1"
+    status = cli.main(["mesh", expr, "--bound", "2", "-o", str(out), "--radius", "0.15",
+                       "--distance", "0.02", "--features", str(feats), "--quiet"])  # fmt: skip
+    text = capsys.readouterr().out
+    assert status == 0
+    assert "features: 12 curves, 8 corners kept" in text
+    import trimesh
+
+    tm = trimesh.load(out, process=False)
+    assert tm.is_watertight
+    for c in CORNERS:
+        assert np.linalg.norm(tm.vertices - c, axis=1).min() <= 1e-12
+
+
+@pytest.mark.parametrize(
+    "content, match",
+    [
+        ("2 0 0 1 1 1\n", "line 1: a polyline of 2 points needs 6 numbers"),
+        ("x 0 0 1\n", "line 1: expected a count"),
+        ("", "holds no polyline"),
+        ("2 0 0 0.5 1 1 1\n", r"features\[0\] is not on the surface"),
+    ],
+)
+def test_cli_bad_polylines_file_is_a_one_line_error(tmp_path, capsys, content, match):
+    from rdmesh import cli
+
+    feats = tmp_path / "bad.txt"
+    feats.write_text(content, encoding="utf-8")
+    status = cli.main(["mesh", "max(max(abs(x), abs(y)), abs(z)) - 1", "--bound", "2", "-o",
+                       str(tmp_path / "o.ply"), "--features", str(feats), "--quiet"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert status == 2
+    assert len(err.strip().splitlines()) == 1 and re.search(match, err)
+
+
+def test_cli_remesh_keeps_a_cubes_corners_unless_told_not_to(tmp_path, capsys):
+    import trimesh
+    from rdmesh import cli
+
+    tri = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                    [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])  # fmt: skip
+    src = tmp_path / "cube.ply"
+    trimesh.Trimesh(CORNERS, tri, process=False).export(src)
+    for extra, kept in (([], True), (["--feature-angle", "0"], False)):
+        out = tmp_path / "out.ply"
+        status = cli.main(["remesh", str(src), "-o", str(out), "--radius", "0.25",
+                           "--distance", "0.03", "--quiet", *extra])  # fmt: skip
+        text = capsys.readouterr().out
+        assert status == 0
+        assert ("features: 12 curves, 8 corners kept" in text) is kept
+        v = trimesh.load(out, process=False).vertices
+        hit = [np.linalg.norm(v - c, axis=1).min() <= 1e-9 for c in CORNERS]
+        assert all(hit) if kept else not any(hit)
+
+
+def test_auto_feature_angle_leaves_out_noise(caplog):
+    """A noisy marching-cubes torus: the many short sharp chains are noise."""
+    from skimage import measure
+
+    n, lo, hi = 30, -1.6, 1.6
+    axis = np.linspace(lo, hi, n)
+    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
+    values = (x * x + y * y + z * z + 1 - 0.16) ** 2 - 4 * (x * x + y * y)
+    step = (hi - lo) / (n - 1)
+    verts, faces, _, _ = measure.marching_cubes(values, 0.0, spacing=(step,) * 3)
+    verts = verts + lo + np.random.default_rng(0).normal(scale=0.15 * step, size=verts.shape)
+    explicit = rdmesh.MeshSurface((verts, faces), feature_angle=60)
+    assert len(explicit.sharp_curves) > 50
+    with caplog.at_level("WARNING", logger="rdmesh"):
+        auto = rdmesh.MeshSurface((verts, faces))
+    assert len(auto.sharp_edges) == 0 and auto.sharp_curves == []
+    assert "look like noise" in caplog.text

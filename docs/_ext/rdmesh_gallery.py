@@ -43,6 +43,7 @@ ORDER = (
     "plot_volume_marching_cubes.py",
     "plot_remesh.py",
     "plot_clipped_gyroid.py",
+    "plot_creases.py",
     "plot_batch.py",
 )
 

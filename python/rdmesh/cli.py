@@ -276,6 +276,37 @@ def _add_run_options(p: argparse.ArgumentParser, method: bool) -> None:
         help="stop after about this long; partial mesh written, exit status 1",
     )
     p.add_argument("--png", metavar="PNG", help="also write a shaded picture")
+    p.add_argument(
+        "--edge-size",
+        type=_positive_float,
+        metavar="L",
+        help="largest mesh edge along feature curves (default: the radius bound)",
+    )
+    feat = p.add_mutually_exclusive_group()
+    feat.add_argument(
+        "--features",
+        metavar="FILE",
+        help="feature curves to keep, in CGAL's polylines format (one per line: "
+        "n x1 y1 z1 ... xn yn zn); they must lie on the surface and meet only at end points",
+    )
+    feat.add_argument(
+        "--no-features",
+        action="store_true",
+        help="protect no curve (clip boundaries snapped, creases and sharp edges rounded)",
+    )
+
+
+def _features(args):
+    """The surface's ``features=`` from ``--features``/``--no-features``."""
+    if args.no_features:
+        return "none"
+    if args.features is None:
+        return None
+    from .features.polyline_file import read_polylines
+
+    if not os.path.isfile(args.features):
+        raise _CliError(f"cannot read {args.features!r}: no such file")
+    return read_polylines(args.features)
 
 
 def _run_options(args) -> dict:
@@ -289,6 +320,7 @@ def _run_options(args) -> dict:
         max_vertices=args.max_vertices,
         time_limit=args.time_limit,
         workers=args.workers,
+        edge_size=args.edge_size,
     )
     if hasattr(args, "method"):
         out["method"] = args.method
@@ -320,8 +352,30 @@ def _add_remesh_parser(sub) -> None:
         help=f"mesh file; format by extension: {' '.join(MESH_FORMATS)}",
     )
     _add_run_options(rm, method=False)
+    rm.add_argument(
+        "--feature-angle",
+        type=_feature_angle,
+        default="auto",
+        metavar="A",
+        help="keep edges whose faces' normals differ by at least A degrees (default auto: "
+        "60 unless the sharp edges look like noise; 0 = none)",
+    )
     _add_output_options(rm)
     rm.set_defaults(run=_remesh)
+
+
+def _feature_angle(text: str) -> float | str | None:
+    if text == "auto":
+        return text
+    try:
+        a = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of degrees: {text!r}") from None
+    if a == 0:
+        return None
+    if not 0 < a < 180:
+        raise argparse.ArgumentTypeError(f"must be in (0, 180) degrees, or 0; got {text!r}")
+    return a
 
 
 def _remesh(args) -> int:
@@ -336,7 +390,10 @@ def _remesh(args) -> int:
         loaded = trimesh.load(path, force="mesh")
     except Exception as exc:  # noqa: BLE001 - trimesh's loaders raise many types
         raise _CliError(f"cannot read {path!r} as a mesh: {_one_line(exc)}") from None
-    surface = MeshSurface(loaded, name=os.path.basename(path))
+    surface = MeshSurface(
+        loaded, name=os.path.basename(path), feature_angle=args.feature_angle,
+        features=_features(args),
+    )  # fmt: skip
     return _run(args, surface, **_run_options(args))
 
 
@@ -395,11 +452,12 @@ def _surface(args) -> ImplicitSurface:
     key = text.lower().replace("-", "_").replace(" ", "_")
     if key in SURFACES:
         surface = SURFACES[key].make()
-        if sphere is None and box is None:
+        if sphere is None and box is None and not args.features and not args.no_features:
             return surface
         return ImplicitSurface(
-            surface.f, sphere, gradient=surface.gradient, name=surface.name, clip_box=box
-        )
+            surface.f, sphere or surface.bounding_sphere, gradient=surface.gradient,
+            name=surface.name, clip_box=box, features=_features(args),
+        )  # fmt: skip
     if text.isidentifier() and text not in VARIABLES and text not in CONSTANTS:
         raise _CliError(
             f"unknown surface {args.surface!r}: built-in surfaces are {', '.join(SURFACES)}; "
@@ -411,7 +469,9 @@ def _surface(args) -> ImplicitSurface:
             f"the expression {text!r} needs a bounding sphere: give --bound R or "
             "--sphere cx,cy,cz,R (or --clip-box)"
         )
-    return ImplicitSurface.from_expression(text, bounding_sphere=sphere, clip_box=box)
+    return ImplicitSurface.from_expression(
+        text, bounding_sphere=sphere, clip_box=box, features=_features(args)
+    )
 
 
 # -- volumes: ``rdmesh mesh volume.npy --isovalue V [--spacing SX SY SZ] ...`` --------
@@ -493,7 +553,7 @@ def _volume_surface(args) -> ImplicitSurface:
     if not isinstance(volume, np.ndarray):
         raise _CliError(f"{path!r} holds several arrays; save one 3-D array with numpy.save")
     opts = {k: getattr(args, k) for k in _VOLUME_OPTIONS if getattr(args, k) is not None}
-    return VolumeSurface(volume, name=os.path.basename(path), **opts)
+    return VolumeSurface(volume, name=os.path.basename(path), features=_features(args), **opts)
 
 
 def _write(mesh: SurfaceMesh, args, title: str) -> str:

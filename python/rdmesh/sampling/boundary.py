@@ -49,6 +49,8 @@ MAX_POINTS, MIN_POINTS = 400_000, 4_000
 PROJECT_ITERATIONS = 30
 #: Curve points per size bound when no distance bound tightens it.
 PER_BOUND = 1.0
+#: Root search along a grid edge: bracket width, as a fraction of the edge.
+EDGE_ROOT_TOL = 1e-14
 #: A curve sample is on the surface when |f| / |grad f| is below this, times R.
 CURVE_TOL = 1e-10
 
@@ -443,9 +445,13 @@ def _edge_roots(
         return surface(point(t, *args).reshape(-1, 3)).reshape(np.shape(t))
 
     args = (p[:, 0], p[:, 1], p[:, 2], q[:, 0], q[:, 1], q[:, 2])
+    # Bracket widths below 1e-14 of the edge: some functions (a sampled
+    # volume) never meet a relative tolerance of 0, and the search would run to
+    # scipy's iteration cap for a few edges (2,048 calls of f).
     res = elementwise.find_root(
-        g, (np.zeros(len(p)), np.ones(len(p))), args=args, tolerances={"xrtol": 0.0}
-    )
+        g, (np.zeros(len(p)), np.ones(len(p))), args=args,
+        tolerances={"xrtol": 0.0, "xatol": EDGE_ROOT_TOL}, maxiter=200,
+    )  # fmt: skip
     t = res.x
     # Status -2 (the iteration cap at this tight tolerance) still leaves a
     # converged bracket; a NaN comes where f rounds to 0 at an end (the curve

@@ -52,8 +52,18 @@ FOLD_ANGLE = 150.0
 _CHUNK = 1 << 18
 
 
+#: Sharp-edge chains shorter than this (edges) with a dangling end are noise.
+MIN_CHAIN_EDGES = 4
+#: feature_angle="auto": this angle, and no sharp edges at all when they look
+#: like noise: at least NOISE_CURVES curves, the median at most NOISE_CHAIN
+#: edges long, and fewer than NOISE_SHARE of all edges sharp (a CAD part's
+#: creases are long, or a large share of its edges).
+AUTO_FEATURE_ANGLE, NOISE_CURVES, NOISE_CHAIN, NOISE_SHARE = 60.0, 50, 2, 0.2
+
+
 def _feature_angle(angle: Any) -> float | None:
-    """The checked ``feature_angle``: None, or a number of degrees in (0, 180)."""
+    """The checked ``feature_angle``: None, or a number of degrees in (0, 180)
+    ("auto" is handled by the caller)."""
     if angle is None:
         return None
     try:
@@ -175,12 +185,15 @@ class MeshSurface(ImplicitSurface):
         vertex dropped.
     name : str, default "mesh"
         A label for logs and reports.
-    feature_angle : float or None, default 60
+    feature_angle : float, "auto" or None, default "auto"
         Edges whose two faces' normals differ by at least this many degrees
         are sharp (CGAL's ``detect_features`` rule); they are chained into
         feature curves, split at corners (vertices with other than two sharp
         edges, or where the chain turns by at least this angle), and kept in
-        the remesh by protecting balls (:mod:`rdmesh.features`). None: none.
+        the remesh by protecting balls (:mod:`rdmesh.features`). "auto": 60
+        degrees, unless the sharp edges look like noise (at least 50 curves,
+        the median one at most 2 edges long, and fewer than 20 % of the edges
+        sharp, as on a noisy scan): then none, with a warning. None: none.
     features : list of (m, 3) array_like, or "none", optional
         More feature curves (see :class:`ImplicitSurface`); "none" protects
         nothing, sharp edges included.
@@ -200,7 +213,9 @@ class MeshSurface(ImplicitSurface):
         Edges whose two faces' normals differ by more than 150 degrees
         (razor-thin wedges; see Notes). Nonzero counts are logged as a warning.
     sharp_edges : (E, 2) int64
-        The sharp edges found with ``feature_angle`` (vertex index pairs).
+        The sharp edges found with ``feature_angle`` (vertex index pairs) and
+        kept: chains of fewer than 4 edges with a dangling end (where no other
+        sharp edge meets them) are left out as noise.
     sharp_curves : list of (k, 3) float64
         Those edges chained into polylines (a closed loop repeats its first
         point last).
@@ -281,7 +296,7 @@ class MeshSurface(ImplicitSurface):
         mesh: Any,
         *,
         name: str = "mesh",
-        feature_angle: float | None = 60.0,
+        feature_angle: float | str | None = "auto",
         features: Any = None,
     ) -> None:
         v, f = _clean(*_as_arrays(mesh))
@@ -341,8 +356,23 @@ class MeshSurface(ImplicitSurface):
                     100 * self.ambiguous_share,
                 )
         self._orient_normals(v, f, norms)
-        self.feature_angle = _feature_angle(feature_angle)
+        auto = isinstance(feature_angle, str) and feature_angle == "auto"
+        self.feature_angle = AUTO_FEATURE_ANGLE if auto else _feature_angle(feature_angle)
         self.sharp_edges, self.sharp_curves = self._sharp(v, f, features)
+        share = len(self.sharp_edges) / (1.5 * len(f))
+        lengths = [len(c) - 1 for c in self.sharp_curves]
+        noisy = (
+            len(lengths) >= NOISE_CURVES
+            and float(np.median(lengths)) <= NOISE_CHAIN
+            and share < NOISE_SHARE
+        )
+        if auto and noisy:
+            log.warning(
+                "MeshSurface: %d sharp edges in %d short curves look like noise; none are "
+                "kept (give feature_angle= to keep them)",
+                len(self.sharp_edges), len(self.sharp_curves),
+            )  # fmt: skip
+            self.sharp_edges, self.sharp_curves = np.zeros((0, 2), np.int64), []
         super().__init__(
             self._signed_distance, (centre, radius), gradient=self._gradient, name=name,
             features=features,
@@ -359,13 +389,30 @@ class MeshSurface(ImplicitSurface):
         n = a / np.maximum(np.linalg.norm(a, axis=1), 1e-300)[:, None]
         edges = sharp_edges(f, n, self.feature_angle)
         chains, closed = chain_edges(v, edges, self.feature_angle)
+        # Noise (a flipped sliver, a spike) makes short chains that end in
+        # nothing; creases are loops, end at junctions, or run on.
+        deg = np.bincount(edges.ravel(), minlength=len(v))
+        keep = [
+            cl or len(c) - 1 >= MIN_CHAIN_EDGES or (deg[c[0]] >= 3 and deg[c[-1]] >= 3)
+            for c, cl in zip(chains, closed, strict=True)
+        ]
+        dropped = len(keep) - sum(keep)
+        chains = [c for c, k in zip(chains, keep, strict=True) if k]
+        closed = [cl for cl, k in zip(closed, keep, strict=True) if k]
         curves = [v[np.r_[c, c[:1]]] if cl else v[c] for c, cl in zip(chains, closed, strict=True)]
+        kept = np.zeros((0, 2), np.int64)
+        if chains:
+            kept = np.concatenate(
+                [np.c_[c, np.roll(c, -1)] if cl else np.c_[c[:-1], c[1:]]
+                 for c, cl in zip(chains, closed, strict=True)]
+            )  # fmt: skip
         if len(edges):
             log.info(
-                "MeshSurface: %d sharp edges (normals %g degrees apart or more) in %d curves",
-                len(edges), self.feature_angle, len(curves),
+                "MeshSurface: %d sharp edges (normals %g degrees apart or more) in %d curves; "
+                "%d short dangling chains left out (noise)",
+                len(kept), self.feature_angle, len(curves), dropped,
             )  # fmt: skip
-        return edges, curves
+        return np.sort(kept, axis=1), curves
 
     def _orient_normals(self, v: np.ndarray, f: np.ndarray, norms: np.ndarray) -> None:
         """Flip the normals (used for the gradient on the mesh) of faces whose front is inside.

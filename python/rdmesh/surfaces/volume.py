@@ -242,6 +242,12 @@ class VolumeSurface(ImplicitSurface):
         edge (see the README, "Volumes").
     name : str, default "volume"
         A label for logs and reports.
+    features : list of (m, 3) array_like, or "none", optional
+        Feature curves to keep (see :class:`rdmesh.ImplicitSurface`). With
+        ``border="closed"`` the curves where the isosurface meets the box
+        faces, and the box edges and corners inside the region, are
+        protected as well; "none" protects nothing (those creases are then
+        cut by triangles).
 
     Attributes
     ----------
@@ -277,8 +283,12 @@ class VolumeSurface(ImplicitSurface):
     smooth surface (for "linear", which is not smooth, the topology
     guarantees do not hold; the angle and size bounds still do).
     Where the isosurface meets a face of the box, the closed surface has a
-    crease (a sharp edge), where those guarantees do not hold: the mesh is
-    closed but the crease is cut by triangles, not followed by edges. The
+    crease (a sharp edge), where those guarantees do not hold; the crease
+    (traced on the box faces, sampled) and the box edges inside the region
+    are protected by balls, so the mesh's edges follow them and
+    ``SurfaceMesh.features`` reports whether every one was kept (with
+    ``features="none"``, or the topological-ball method, the crease is cut
+    by triangles instead). The
     cubic interpolant's mirror boundary makes its normal derivative vanish on
     the faces, so its isosurface meets the faces at right angles.
 
@@ -309,6 +319,7 @@ class VolumeSurface(ImplicitSurface):
         interpolation: str = "cubic",
         border: str = "closed",
         name: str = "volume",
+        features: Any = None,
     ) -> None:
         choice("inside", inside, INSIDE)
         choice("interpolation", interpolation, INTERPOLATIONS)
@@ -364,9 +375,12 @@ class VolumeSurface(ImplicitSurface):
                 gradient=self._volume_gradient,
                 name=name,
                 clip_box=self.box,
+                features=features,
             )
         else:
-            super().__init__(self._f, (centre, radius), gradient=self._gradient, name=name)
+            super().__init__(
+                self._f, (centre, radius), gradient=self._gradient, name=name, features=features
+            )
 
     def __repr__(self) -> str:
         return (
