@@ -6,11 +6,11 @@
 #include <cfloat>
 #include <cmath>
 #include <cstring>
-#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
-#include <thread>
+
+#include "on_cores.hpp"
 
 namespace rdmesh {
 namespace {
@@ -570,11 +570,9 @@ void BoxEvaluator::tighten(const double* l, const double* h, BoxBounds& b) {
 
 namespace {
 
-// Boxes [begin, end) of evaluate_intervals, with an evaluator of their own.
-void evaluate_range(const std::vector<IntervalInstruction>& program, const double* lo,
-                    const double* hi, std::size_t begin, std::size_t end, bool gradient,
-                    bool mean_value, IntervalResult& out) {
-  BoxEvaluator box(program, gradient, mean_value);
+// Boxes [begin, end) of evaluate_intervals, with the evaluator of a thread.
+void evaluate_range(BoxEvaluator& box, const double* lo, const double* hi, std::size_t begin,
+                    std::size_t end, bool gradient, IntervalResult& out) {
   BoxBounds b;
   for (std::size_t i = begin; i < end; ++i) {
     box.evaluate(lo + 3 * i, hi + 3 * i, b);
@@ -589,8 +587,8 @@ void evaluate_range(const std::vector<IntervalInstruction>& program, const doubl
   }
 }
 
-// Boxes per thread below which one thread does all the work.
-constexpr std::size_t kPerThread = 512;
+// Boxes per work item, and at least per thread.
+constexpr std::size_t kPerItem = 512;
 
 }  // namespace
 
@@ -606,19 +604,15 @@ IntervalResult evaluate_intervals(const std::vector<IntervalInstruction>& progra
     out.glo.assign(3 * n, 0.0);
     out.ghi.assign(3 * n, 0.0);
   }
-  // Boxes are independent: split them over the cores (each writes its own rows,
-  // so the result does not depend on the split).
-  const std::size_t cores = std::max(1u, std::thread::hardware_concurrency());
-  const std::size_t parts = std::max<std::size_t>(1, std::min(cores, n / kPerThread));
-  std::vector<std::thread> threads;
-  const std::size_t step = (n + parts - 1) / std::max<std::size_t>(parts, 1);
-  for (std::size_t t = 1; t < parts; ++t) {
-    const std::size_t b = t * step, e = std::min(n, b + step);
-    threads.emplace_back(evaluate_range, std::cref(program), lo, hi, b, e, gradient, mean_value,
-                         std::ref(out));
-  }
-  evaluate_range(program, lo, hi, 0, std::min(n, step), gradient, mean_value, out);
-  for (auto& t : threads) t.join();
+  // Boxes are independent: ranges of kPerItem boxes spread over the cores
+  // (each writes its own rows, so the result does not depend on the split).
+  const std::size_t items = (n + kPerItem - 1) / kPerItem;
+  for_each_on_cores(
+      items, [&] { return BoxEvaluator(program, gradient, mean_value); },
+      [&](BoxEvaluator& box, std::size_t t) {
+        evaluate_range(box, lo, hi, t * kPerItem, std::min(n, (t + 1) * kPerItem), gradient, out);
+      },
+      std::max<std::size_t>(1, n / kPerItem));
   return out;
 }
 

@@ -24,6 +24,7 @@
 #include "cell_boxes.hpp"
 #include "interval_eval.hpp"
 #include "mesh_distance.hpp"
+#include "on_cores.hpp"
 #include "rdt.hpp"
 #include "sample_scan.hpp"
 #include "segment_roots.hpp"
@@ -187,6 +188,18 @@ PYBIND11_MODULE(_rdt, m) {
       "none); returns the previous count. Fault points: each facet "
       "changed_facets appends or cell it gathers, each update_facets, and the "
       "conversion of changed_facets' result.");
+
+  m.def("usable_cores", &rdmesh::usable_cores,
+        "The CPUs this process may run on (its affinity mask): how many threads the "
+        "evaluator, the proofs and root isolation spread their work over.");
+
+  m.def(
+      "_fail_worker_for_testing",
+      [](std::int64_t n) { return rdmesh::worker_fault_for_testing.exchange(n); },
+      py::arg("n"),
+      "Test hook: the n-th work item from now taken by a worker thread (not the calling "
+      "thread) of evaluate_intervals, prove_boxes, isolate_segment_roots or segment_pieces "
+      "raises RuntimeError in the caller (n <= 0: none); returns the previous count.");
 
   m.def(
       "sample_segments",

@@ -11,7 +11,9 @@ distance, side and winding-number queries behind ``MeshSurface``;
 (:mod:`rdmesh.surfaces.interval_program`); ``boxes_outside_cells``, the
 Voronoi-cell pruning of the proven topological-ball tests; and
 ``prove_boxes``, their whole subdivision, owner by owner, over the cores;
-and ``isolate_segment_roots``, proven root isolation on segments.
+and ``isolate_segment_roots``, proven root isolation on segments. Work that
+the core spreads over threads uses ``usable_cores()`` of them, the CPUs this
+process may run on.
 
 Facet flag bits (set by Python, kept by the core per facet):
 ``RESTRICTED`` (the dual meets the surface), ``BAD`` (fails a criterion),
@@ -41,6 +43,7 @@ from ._rdt import (
     segment_pieces,
     select_independent,
     trim_heap,
+    usable_cores,
 )
 
 __all__ = [
@@ -62,4 +65,5 @@ __all__ = [
     "segment_pieces",
     "select_independent",
     "trim_heap",
+    "usable_cores",
 ]
