@@ -1,5 +1,6 @@
-# Type stub of rdmesh._rdt, the C++ core (cpp/module.cpp).  Kept in step with
-# the bindings by tests/test_core_threads.py::test_stub_matches_the_bindings.
+# Type stub of rdmesh._rdt, the C++ core (cpp/module.cpp and the bind_*.cpp files
+# it lists).  Kept in step with the bindings by
+# tests/test_core_threads.py::test_stub_matches_the_bindings.
 
 from typing import Final
 
