@@ -63,6 +63,11 @@ std::vector<std::int64_t> sample_ids(const IdArray& a, std::size_t n, std::size_
 }  // namespace
 
 void register_intervals(py::module_& m) {
+  py::dict ops;
+  for (std::int32_t op = 0; op < IV_OP_COUNT; ++op) ops[kIntervalOpNames[op]] = op;
+  m.attr("INTERVAL_OPS") = ops;
+  m.attr("INTERVAL_REL_WIDENING") = kRelWidening;
+
   m.def("usable_cores", &usable_cores,
         "The CPUs this process may run on (its affinity mask): how many threads the "
         "evaluator, the proofs and root isolation spread their work over.");
@@ -131,7 +136,7 @@ void register_intervals(py::module_& m) {
       py::arg("ops"), py::arg("consts"), py::arg("lo"), py::arg("hi"), py::arg("gradient"),
       py::arg("mean_value"),
       "Interval bounds of a compiled expression program (see "
-      "rdmesh.surfaces.interval_program) over (n, 3) boxes: (lo, hi, glo, ghi, undefined); "
+      "rdmesh.surfaces.interval_program; opcodes in INTERVAL_OPS) over (n, 3) boxes: (lo, hi, glo, ghi, undefined); "
       "glo and ghi are None without gradient.");
 
   m.def(

@@ -32,6 +32,29 @@ class CGALError(RdmeshError, RuntimeError):
     """CGAL reported a failure inside the C++ core."""
 
 
+class ExpressionError(RdmeshError, ValueError):
+    """The text is not an accepted expression (see
+    :func:`rdmesh.surfaces.expressions.parse_expression`).
+
+    Attributes
+    ----------
+    text : str
+        The expression text.
+    reason : str
+        What is wrong, e.g. ``"unknown name 'os'"``.
+    column : int or None
+        1-based column of the offending part, when known.
+    """
+
+    def __init__(self, text: str, reason: str, column: int | None = None) -> None:
+        shown = text if len(text) <= 60 else text[:57] + "..."
+        where = f" (column {column})" if column is not None else ""
+        super().__init__(f"invalid expression {shown!r}: {reason}{where}")
+        self.text = text
+        self.reason = reason
+        self.column = column
+
+
 class BudgetExceeded(RdmeshError):
     """Refinement hit a budget (vertices, rounds or time) before it finished.
 

@@ -13,6 +13,8 @@ BAD: Final[int]
 OUTWARD: Final[int]
 TOPO: Final[int]
 KNOWN: Final[int]
+INTERVAL_OPS: Final[dict[str, int]]  # opcode of each interval instruction, by name
+INTERVAL_REL_WIDENING: Final[float]
 
 _SegmentSamples = tuple[
     npt.NDArray[np.int64],  # (k+1,) offsets
