@@ -241,6 +241,24 @@ def test_ctrl_c_in_the_report_gives_the_mesh(monkeypatch):
     assert m.is_closed_manifold() and not m.complete and m.report == {}
 
 
+def test_ctrl_c_during_refinement_is_not_a_budget_stop():
+    rounds = []
+
+    def progress(info):
+        rounds.append(info["round"])
+        if len(rounds) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(rdmesh.Interrupted) as info:
+        try:
+            rdmesh.mesh_surface(SURFACES["torus"].make(), radius_bound=0.1, progress=progress)
+        except rdmesh.BudgetExceeded:  # going on with a budget's partial mesh
+            pytest.fail("Ctrl-C was caught as a budget stop")
+    assert info.value.reason == "interrupted"
+    m = info.value.mesh
+    assert not m.complete and len(m.faces) > 0 and m.stats["rounds"] == 2
+
+
 def test_taking_candidates_keeps_what_is_not_per_point():
     from dataclasses import fields
 

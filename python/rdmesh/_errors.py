@@ -55,16 +55,19 @@ class ExpressionError(RdmeshError, ValueError):
         self.column = column
 
 
-class BudgetExceeded(RdmeshError):
-    """Refinement hit a budget (vertices, rounds or time) before it finished.
+class StoppedEarly(RdmeshError):
+    """Refinement stopped before it finished: a budget ran out
+    (:class:`BudgetExceeded`), it stalled (:class:`RefinementStalled`) or
+    Ctrl-C interrupted it (:class:`Interrupted`). Catch this to get the
+    partial mesh whatever the cause.
 
     Attributes
     ----------
     mesh : SurfaceMesh
-        The mesh as it stood when the budget ran out, flagged
+        The mesh as it stood when refinement stopped, flagged
         ``complete=False``. It may not be watertight.
     reason : str
-        Which budget ran out.
+        Why refinement stopped.
     """
 
     def __init__(self, message: str, mesh: Any = None, reason: str = "") -> None:
@@ -73,8 +76,17 @@ class BudgetExceeded(RdmeshError):
         self.reason = reason
 
 
-class Interrupted(BudgetExceeded):
-    """Refinement was interrupted (Ctrl-C); ``.mesh`` holds the partial mesh."""
+class BudgetExceeded(StoppedEarly):
+    """Refinement hit a budget (vertices, rounds or time) before it finished;
+    ``.mesh`` holds the partial mesh, ``.reason`` says which budget ran out."""
+
+
+class Interrupted(StoppedEarly):
+    """Refinement was interrupted (Ctrl-C); ``.mesh`` holds the partial mesh.
+
+    Not a :class:`BudgetExceeded`: code that catches a budget stop to go on
+    with the partial mesh does not swallow a Ctrl-C.
+    """
 
 
 class RefinementStalled(BudgetExceeded):

@@ -39,7 +39,7 @@ import os
 import sys
 
 from . import __version__, core
-from ._errors import BudgetExceeded, Interrupted, RdmeshError
+from ._errors import Interrupted, RdmeshError, StoppedEarly
 from .api import METHODS, mesh_surface
 from .io.result import MESH_FORMATS, SurfaceMesh
 from .refine.methods import TOPOLOGIES
@@ -519,7 +519,7 @@ def _run(args, surface: ImplicitSurface, **opts) -> int:
     try:
         with ProgressBar(total=total, disable=args.quiet) as bar:
             mesh = mesh_surface(surface, progress=bar.update, **opts)
-    except BudgetExceeded as exc:
+    except StoppedEarly as exc:  # a budget, a stall or Ctrl-C: write the partial mesh
         interrupted = isinstance(exc, Interrupted)
         why = "interrupted" if interrupted else f"stopped early ({exc.reason or exc})"
         status = EXIT_INTERRUPTED if interrupted else EXIT_BUDGET
