@@ -507,6 +507,7 @@ def _write(mesh: SurfaceMesh, args, title: str) -> str:
 
 def _run(args, surface: ImplicitSurface, **opts) -> int:
     from .progress import ProgressBar
+    from .progress import available as progress_available
 
     _check_writable(args.output)
     if args.png:
@@ -517,7 +518,8 @@ def _run(args, surface: ImplicitSurface, **opts) -> int:
     )
     total = opts.get("max_vertices")
     try:
-        with ProgressBar(total=total, disable=args.quiet) as bar:
+        # Without tqdm (an optional dependency) the run goes on without a bar.
+        with ProgressBar(total=total, disable=args.quiet or not progress_available()) as bar:
             mesh = mesh_surface(surface, progress=bar.update, **opts)
     except StoppedEarly as exc:  # a budget, a stall or Ctrl-C: write the partial mesh
         interrupted = isinstance(exc, Interrupted)
