@@ -24,7 +24,8 @@ namespace {
 
 // The interval program (rdmesh.surfaces.interval_program): (t, 3) ops and (t,) constants.
 std::vector<IntervalInstruction> program_of(const OpArray& ops, const InArray& consts) {
-  if (ops.ndim() != 2 || ops.shape(1) != 3) throw std::invalid_argument("ops must have shape (t, 3)");
+  if (ops.ndim() != 2 || ops.shape(1) != 3)
+    throw std::invalid_argument("ops must have shape (t, 3)");
   if (consts.ndim() != 1 || consts.shape(0) != ops.shape(0))
     throw std::invalid_argument("consts must have shape (t,)");
   std::vector<IntervalInstruction> program(ops.shape(0));
@@ -136,7 +137,8 @@ void register_intervals(py::module_& m) {
       py::arg("ops"), py::arg("consts"), py::arg("lo"), py::arg("hi"), py::arg("gradient"),
       py::arg("mean_value"),
       "Interval bounds of a compiled expression program (see "
-      "rdmesh.surfaces.interval_program; opcodes in INTERVAL_OPS) over (n, 3) boxes: (lo, hi, glo, ghi, undefined); "
+      "rdmesh.surfaces.interval_program; opcodes in INTERVAL_OPS) over (n, 3) boxes: "
+      "(lo, hi, glo, ghi, undefined); "
       "glo and ghi are None without gradient.");
 
   m.def(
@@ -186,7 +188,7 @@ void register_intervals(py::module_& m) {
         if (seeds) {
           if (seeds->size() != 4)
             throw std::invalid_argument("seeds must be (seeded, first, lo, hi)");
-          const auto sd = (*seeds)[0].cast<py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>>();
+          const auto sd = (*seeds)[0].cast<FlagArray>();
           const auto sf = (*seeds)[1].cast<IdArray>();
           seeded = copy_of<std::uint8_t>(sd);
           seed_first = copy_of<std::int64_t>(sf);
@@ -282,13 +284,9 @@ void register_intervals(py::module_& m) {
                                             t0 ? T0.data() : nullptr, t0 ? T1.data() : nullptr,
                                             n_seg, min_length, static_cast<std::size_t>(budget));
         }
-        auto n = [](const auto& v) { return std::vector<py::ssize_t>{static_cast<py::ssize_t>(v.size())}; };
-        return py::make_tuple(to_numpy(r.found_segment, n(r.found_segment)),
-                              to_numpy(r.found_lo, n(r.found_lo)),
-                              to_numpy(r.found_hi, n(r.found_hi)),
-                              to_numpy(r.pending_segment, n(r.pending_segment)),
-                              to_numpy(r.pending_lo, n(r.pending_lo)),
-                              to_numpy(r.pending_hi, n(r.pending_hi)), r.boxes);
+        return py::make_tuple(to_numpy(r.found_segment), to_numpy(r.found_lo),
+                              to_numpy(r.found_hi), to_numpy(r.pending_segment),
+                              to_numpy(r.pending_lo), to_numpy(r.pending_hi), r.boxes);
       },
       py::arg("ops"), py::arg("consts"), py::arg("a"), py::arg("b"), py::arg("min_length"),
       py::arg("budget") = 1 << 16, py::arg("t0") = py::none(), py::arg("t1") = py::none(),

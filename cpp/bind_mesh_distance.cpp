@@ -19,8 +19,7 @@ void register_mesh_distance(py::module_& m) {
                throw std::invalid_argument("faces must have shape (m, 3)");
              const std::vector<std::int64_t> f = copy_of<std::int64_t>(faces);
              py::gil_scoped_release release;
-             return new MeshDistance(v.data(), v.size() / 3, f.data(), f.size() / 3,
-                                             side);
+             return new MeshDistance(v.data(), v.size() / 3, f.data(), f.size() / 3, side);
            }),
            py::arg("vertices"), py::arg("faces"), py::arg("side") = true)
       .def(

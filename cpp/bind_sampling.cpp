@@ -23,8 +23,8 @@ SegmentSampling sampling_spec(double per_radius, std::int64_t lo, std::int64_t h
 }
 
 py::tuple samples_tuple(SegmentSamples& m) {
-  return py::make_tuple(to_numpy(m.offsets), to_numpy(m.s),
-                        to_numpy(m.interior, {static_cast<py::ssize_t>(m.interior.size() / 3), 3}));
+  const auto rows = static_cast<py::ssize_t>(m.interior.size() / 3);
+  return py::make_tuple(to_numpy(m.offsets), to_numpy(m.s), to_numpy(m.interior, {rows, 3}));
 }
 
 void register_sampling(py::module_& m) {

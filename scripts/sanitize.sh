@@ -7,8 +7,9 @@
 #   bash scripts/sanitize.sh                 # the default test files
 #   bash scripts/sanitize.sh tests/test_core.py -k insert
 #
-# Python itself is not instrumented, so libasan is preloaded; CPython keeps
-# memory until exit, so leak detection is off. Needs what quickstart.sh needs
+# Python itself is not instrumented, so libasan is preloaded, and libstdc++
+# with it (else ASan finds no __cxa_throw to intercept and stops at the first
+# C++ exception); CPython keeps memory until exit, so leak detection is off. Needs what quickstart.sh needs
 # (run that first on a fresh machine).
 # Environment: RDMESH_SANITIZE_VENV (default .venv-sanitize), PYTHON (default python3).
 set -euo pipefail
@@ -29,11 +30,14 @@ say "building rdmesh with -fsanitize=address,undefined (several minutes)"
   --config-settings=cmake.define.RDMESH_SANITIZE=ON
 
 libasan=$(g++ -print-file-name=libasan.so)
-if [[ ! -e "$libasan" ]]; then
-  say "no libasan.so next to g++ ($libasan)"
-  exit 1
-fi
-export LD_PRELOAD="$libasan${LD_PRELOAD:+ $LD_PRELOAD}"
+libstdcxx=$(g++ -print-file-name=libstdc++.so)
+for lib in "$libasan" "$libstdcxx"; do
+  if [[ ! -e "$lib" ]]; then
+    say "no $(basename "$lib") next to g++ ($lib)"
+    exit 1
+  fi
+done
+export LD_PRELOAD="$libasan $libstdcxx${LD_PRELOAD:+ $LD_PRELOAD}"
 # allocator_may_return_null: a huge allocation becomes std::bad_alloc (MemoryError),
 # as without the sanitizer, instead of an ASan report.
 export ASAN_OPTIONS="detect_leaks=0:allocator_may_return_null=1:abort_on_error=1${ASAN_OPTIONS:+:$ASAN_OPTIONS}"
