@@ -1,16 +1,17 @@
-// Interval dual numbers over boxes; see interval_eval.hpp.  Each rule mirrors
-// the one of the same name in python/rdmesh/surfaces/intervals.py.
+// Interval dual numbers over boxes; see interval_eval.hpp.  Each rule has its
+// twin of the same name in tests/interval_reference.py, the numpy reference
+// the tests compare this evaluator against.
 #include "interval_eval.hpp"
 
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <cstring>
-#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
-#include <thread>
+
+#include "on_cores.hpp"
 
 namespace rdmesh {
 namespace {
@@ -18,10 +19,9 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kMax = DBL_MAX;
 constexpr double kTiny = DBL_MIN;  // smallest normal
-// Relative widening of libm results that are not correctly rounded
-// (intervals.REL_WIDENING).
-constexpr double kRel = 1.0 / 562949953421312.0;  // 2**-49
+constexpr double kRel = kRelWidening;  // of libm results
 const double kPi = std::acos(-1.0);
+const double kPiUp = std::nextafter(kPi, kInf);  // above the true pi
 
 struct I {
   double lo, hi;
@@ -30,7 +30,7 @@ struct I {
 // A float below x, one to two ulps (NaN gives -inf, +inf the largest float),
 // and above.  In round-to-nearest, fl(x - fl(fl(2**-52 |x|) + 2**-1074)) is at
 // most the float below x, as 2**-52 |x| is at least one ulp of x and 2**-1074
-// the subnormal spacing (intervals._dn).  No libm call (nextafter is one).
+// the subnormal spacing.  No libm call (nextafter is one).
 constexpr double kUlpRel = 2.220446049250313e-16;  // 2**-52
 constexpr double kEta = 4.9406564584124654e-324;   // 2**-1074
 // Comparisons rather than fmin/fmax: those are libm calls under CGAL's
@@ -201,14 +201,28 @@ I pow_int(I a, double n) {
   return {std::max(dn_t(r.lo), 0.0), up_t(r.hi)};
 }
 
-// Clips a to [lower, inf) (open or closed): undefined where a leaves it,
-// empty where no member is in it.
+// A function's domain: [lower, upper], each end open or closed.
+struct Domain {
+  double lower, upper;
+  bool open_lower, open_upper;
+};
+constexpr Domain kEverywhere = {-kInf, kInf, false, false};
+
+// Clips a to the domain: undefined where a leaves it, empty where no member
+// is in it.
+inline I restrict(I a, const Domain& d, bool& undefined, bool& empty) {
+  undefined = d.open_lower ? a.lo <= d.lower : a.lo < d.lower;
+  empty = d.open_lower ? a.hi <= d.lower : a.hi < d.lower;
+  const double lo = std::max(a.lo, d.lower);
+  undefined = undefined || (d.open_upper ? a.hi >= d.upper : a.hi > d.upper);
+  empty = empty || (d.open_upper ? lo >= d.upper : lo > d.upper);
+  const double hi = std::min(a.hi, d.upper);
+  empty = empty || lo > hi;
+  return {lo, std::max(lo, hi)};
+}
+
 inline I restrict_below(I a, double lower, bool open, bool& undefined, bool& empty) {
-  undefined = open ? a.lo <= lower : a.lo < lower;
-  empty = open ? a.hi <= lower : a.hi < lower;
-  const double lo = std::max(a.lo, lower);
-  empty = empty || lo > a.hi;
-  return {lo, std::max(lo, a.hi)};
+  return restrict(a, {lower, kInf, open, false}, undefined, empty);
 }
 
 // a**c for a constant c; sets undefined where a holds points outside the domain.
@@ -252,6 +266,180 @@ I wave(bool is_sin, I a) {
   return {std::clamp(lo, -1.0, 1.0), std::clamp(hi, -1.0, 1.0)};
 }
 
+const I kOne = {1.0, 1.0};
+
+template <class F>
+inline I increasing(F fn, I a) {
+  return {dn_t(fn(a.lo)), up_t(fn(a.hi))};
+}
+template <class F>
+inline I decreasing(F fn, I a) {
+  return {dn_t(fn(a.hi)), up_t(fn(a.lo))};
+}
+// Intersects with a range that holds every true value (exact bounds stay exact).
+inline I clip(I a, double lower, double upper) {
+  return {std::clamp(a.lo, lower, upper), std::clamp(a.hi, lower, upper)};
+}
+// An increasing function with fn(0) = 0 whose range lies in [lower, upper].
+template <class F>
+inline I through0(F fn, I a, double lower = -kInf, double upper = kInf) {
+  return clip(keep_sign(increasing(fn, a), a), lower, upper);
+}
+// IEEE 754 square roots are correctly rounded: no libm widening.
+inline I sqrt_iv(I a) { return {std::max(dn(std::sqrt(a.lo)), 0.0), up(std::sqrt(a.hi))}; }
+inline I exp_iv(I a) { return {std::max(dn_t(std::exp(a.lo)), 0.0), up_t(std::exp(a.hi))}; }
+inline I cosh_iv(I a) {
+  return {std::max(dn_t(std::cosh(mig(a))), 1.0), up_t(std::cosh(mag(a)))};
+}
+// ln c, known only to within its rounding.
+inline I ln_const(double c) {
+  const double l = std::log(c);
+  return {dn(l), up(l)};
+}
+// The derivative of a non-decreasing step function: 0, or [0, inf] across a jump.
+inline I steps(bool jump) { return {0.0, jump ? kInf : 0.0}; }
+// 1 / sqrt(1 - a**2), the slope of asin.
+inline I asin_slope(I a) { return recip(sqrt_iv(clip(sub(kOne, sqr(a)), 0.0, kInf))); }
+inline double sign(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : 0.0); }
+
+#define RDMESH_LIBM(fn) [](double x) { return std::fn(x); }
+
+// The domain of a unary function (kEverywhere: no restriction).
+inline Domain domain_of(std::int32_t op) {
+  switch (op) {
+    case IV_SQRT:
+      return {0.0, kInf, false, false};
+    case IV_LOG:
+    case IV_LOG2:
+    case IV_LOG10:
+      return {0.0, kInf, true, false};
+    case IV_LOG1P:
+      return {-1.0, kInf, true, false};
+    case IV_ASIN:
+    case IV_ACOS:
+      return {-1.0, 1.0, false, false};
+    case IV_ACOSH:
+      return {1.0, kInf, false, false};
+    case IV_ATANH:
+      return {-1.0, 1.0, true, true};
+    default:
+      return kEverywhere;
+  }
+}
+
+// The range of a unary function over a (a within its domain).
+I unary_value(std::int32_t op, I a) {
+  switch (op) {
+    case IV_SQRT:
+      return sqrt_iv(a);
+    case IV_EXP:
+      return exp_iv(a);
+    case IV_LOG:
+      return increasing(RDMESH_LIBM(log), a);
+    case IV_ABS:
+      return {mig(a), mag(a)};
+    case IV_SIN:
+      return wave(true, a);
+    case IV_COS:
+      return wave(false, a);
+    case IV_ASIN:
+      return through0(RDMESH_LIBM(asin), a);
+    case IV_ACOS:
+      return clip(decreasing(RDMESH_LIBM(acos), a), 0.0, kInf);
+    case IV_ATAN:
+      return through0(RDMESH_LIBM(atan), a);
+    case IV_SINH:
+      return through0(RDMESH_LIBM(sinh), a);
+    case IV_COSH:
+      return cosh_iv(a);
+    case IV_TANH:
+      return through0(RDMESH_LIBM(tanh), a, -1.0, 1.0);
+    case IV_ASINH:
+      return through0(RDMESH_LIBM(asinh), a);
+    case IV_ACOSH:
+      return clip(increasing(RDMESH_LIBM(acosh), a), 0.0, kInf);
+    case IV_ATANH:
+      return through0(RDMESH_LIBM(atanh), a);
+    case IV_EXPM1:
+      return clip(through0(RDMESH_LIBM(expm1), a), -1.0, kInf);
+    case IV_LOG1P:
+      return keep_sign(increasing(RDMESH_LIBM(log1p), a), a);
+    case IV_LOG2:
+      return increasing(RDMESH_LIBM(log2), a);
+    case IV_LOG10:
+      return increasing(RDMESH_LIBM(log10), a);
+    case IV_CBRT:
+      return through0(RDMESH_LIBM(cbrt), a);
+    case IV_SIGN:
+      return {sign(a.lo), sign(a.hi)};
+    case IV_FLOOR:
+      return {std::floor(a.lo), std::floor(a.hi)};
+    case IV_CEIL:
+      return {std::ceil(a.lo), std::ceil(a.hi)};
+    default:
+      return full();  // unreachable: not a unary function
+  }
+}
+
+// The derivative of a unary function over a (within its domain), given its
+// range v.  The formulas retrace the point derivatives of
+// rdmesh.surfaces.pointwise (1/sqrt(1 - u*u) for asin, ...), so that an
+// enclosure on a point box also holds the rounded point derivative.  At kinks
+// and jumps: the hull of both sides.
+I unary_derivative(std::int32_t op, I a, I v) {
+  switch (op) {
+    case IV_SQRT:
+      return mul(point(0.5), recip(v));
+    case IV_EXP:
+      return v;
+    case IV_LOG:
+      return recip(a);
+    case IV_ABS:  // sign(u), and the hull [-1, 1] of both branches where 0 is in a
+      return {a.lo > 0 ? 1.0 : -1.0, a.hi < 0 ? -1.0 : 1.0};
+    case IV_SIN:
+      return wave(false, a);
+    case IV_COS:
+      return neg(wave(true, a));
+    case IV_ASIN:
+      return asin_slope(a);
+    case IV_ACOS:
+      return neg(asin_slope(a));
+    case IV_ATAN:
+      return recip(add(kOne, sqr(a)));
+    case IV_SINH:
+      return cosh_iv(a);
+    case IV_COSH:
+      return through0(RDMESH_LIBM(sinh), a);
+    case IV_TANH:
+      return clip(sub(kOne, sqr(v)), 0.0, 1.0);
+    case IV_ASINH:
+      return recip(sqrt_iv(add(sqr(a), kOne)));
+    case IV_ACOSH:
+      return recip(sqrt_iv(clip(sub(sqr(a), kOne), 0.0, kInf)));
+    case IV_ATANH:
+      return recip(clip(sub(kOne, sqr(a)), 0.0, kInf));
+    case IV_EXPM1:
+      return exp_iv(a);
+    case IV_LOG1P:
+      return recip(add(kOne, a));
+    case IV_LOG2:
+      return recip(mul(a, ln_const(2.0)));
+    case IV_LOG10:
+      return recip(mul(a, ln_const(10.0)));
+    case IV_CBRT:
+      return recip(mul(point(3.0), sqr(v)));
+    case IV_SIGN:
+      return steps(has0(a));
+    case IV_FLOOR:
+    case IV_CEIL:
+      return steps(std::ceil(a.lo) <= a.hi);
+    default:
+      return full();  // unreachable: not a unary function
+  }
+}
+
+#undef RDMESH_LIBM
+
 struct Dual {
   I v;
   I g[3];
@@ -278,7 +466,13 @@ class Machine {
         case IV_DIV:
         case IV_MIN:
         case IV_MAX:
+        case IV_POW:
+        case IV_HYPOT:
           grad_[i] = grad_[p.a] | grad_[p.b];
+          break;
+        case IV_ATAN2:
+          // Across the branch cut every component is unbounded.
+          grad_[i] = (grad_[p.a] | grad_[p.b]) ? 7 : 0;
           break;
         case IV_POWC:
           // A non-finite exponent makes every component unbounded.
@@ -402,50 +596,16 @@ class Machine {
         }
         return;
       }
-      case IV_SQRT:
-      case IV_LOG: {
+      case IV_TAN: {
         const Dual& a = regs_[p.a];
-        const bool is_log = p.op == IV_LOG;
-        bool u, empty;
-        const I x = restrict_below(a.v, 0.0, is_log, u, empty);
-        undef = undef || u;
-        if (empty) {
-          r.v = full();
-          if (g)
-            for (int k = 0; k < 3; ++k)
-            if (has(i, k)) r.g[k] = mul(a.g[k], full());
-          return;
-        }
-        I d;
-        if (is_log) {
-          r.v = {dn_t(std::log(x.lo)), up_t(std::log(x.hi))};
-          d = recip(x);
-        } else {
-          // IEEE 754 square roots are correctly rounded: no libm widening.
-          r.v = {std::max(dn(std::sqrt(x.lo)), 0.0), up(std::sqrt(x.hi))};
-          d = mul(point(0.5), recip(r.v));
-        }
-        if (g)
+        const bool pole = hits(a.v, kPi / 2, kPi);
+        undef = undef || pole;
+        r.v = pole ? full() : increasing([](double u) { return std::tan(u); }, a.v);
+        if (g) {
+          const I d = recip(sqr(wave(false, a.v)));  // 1 / cos(u)**2
           for (int k = 0; k < 3; ++k)
             if (has(i, k)) r.g[k] = mul(a.g[k], d);
-        return;
-      }
-      case IV_EXP: {
-        const Dual& a = regs_[p.a];
-        r.v = {std::max(dn_t(std::exp(a.v.lo)), 0.0), up_t(std::exp(a.v.hi))};
-        if (g)
-          for (int k = 0; k < 3; ++k)
-            if (has(i, k)) r.g[k] = mul(a.g[k], r.v);
-        return;
-      }
-      case IV_ABS: {
-        const Dual& a = regs_[p.a];
-        // sign(u), and the hull [-1, 1] of both branches where 0 is in a.
-        const I d = {a.v.lo > 0 ? 1.0 : -1.0, a.v.hi < 0 ? -1.0 : 1.0};
-        if (g)
-          for (int k = 0; k < 3; ++k)
-            if (has(i, k)) r.g[k] = mul(a.g[k], d);
-        r.v = {mig(a.v), mag(a.v)};
+        }
         return;
       }
       case IV_MIN:
@@ -472,21 +632,85 @@ class Machine {
           }
         return;
       }
-      case IV_SIN:
-      case IV_COS: {
-        const Dual& a = regs_[p.a];
-        const bool is_sin = p.op == IV_SIN;
-        r.v = wave(is_sin, a.v);
+      case IV_POW: {
+        // a**b = exp(b log a) for a > 0.
+        const Dual &a = regs_[p.a], &b = regs_[p.b];
+        bool u, empty;
+        const I base = restrict_below(a.v, 0.0, true, u, empty);
+        undef = undef || u;
+        const I la = increasing([](double t) { return std::log(t); }, base);
+        r.v = empty ? full() : exp_iv(mul(b.v, la));
         if (g) {
-          const I d = is_sin ? wave(false, a.v) : neg(wave(true, a.v));
+          const I da = empty ? full() : mul(b.v, exp_iv(mul(sub(b.v, kOne), la)));
+          const I db = empty ? full() : mul(r.v, la);
+          for (int k = 0; k < 3; ++k)
+            if (has(i, k)) r.g[k] = chain(p, k, da, db);
+        }
+        return;
+      }
+      case IV_ATAN2: {
+        const Dual &y = regs_[p.a], &x = regs_[p.b];
+        const bool origin = has0(x.v) && has0(y.v);
+        undef = undef || origin;
+        // Off the origin and the branch cut (y = 0, x < 0) the angle over a
+        // box is continuous, and its extremes are at corners.
+        const bool jump = origin || (x.v.lo < 0 && has0(y.v));
+        const double c1 = std::atan2(y.v.lo, x.v.lo), c2 = std::atan2(y.v.lo, x.v.hi);
+        const double c3 = std::atan2(y.v.hi, x.v.lo), c4 = std::atan2(y.v.hi, x.v.hi);
+        const double lo = dn_t(std::min(std::min(c1, c2), std::min(c3, c4)));
+        const double hi = up_t(std::max(std::max(c1, c2), std::max(c3, c4)));
+        r.v = clip({jump ? -kPiUp : lo, jump ? kPiUp : hi}, -kPiUp, kPiUp);
+        if (g) {
+          const I r2 = add(sqr(x.v), sqr(y.v));
+          const I dy = div(x.v, r2), dx = neg(div(y.v, r2));
+          for (int k = 0; k < 3; ++k)
+            if (has(i, k)) r.g[k] = jump ? full() : chain(p, k, dy, dx);
+        }
+        return;
+      }
+      case IV_HYPOT: {
+        const Dual &a = regs_[p.a], &b = regs_[p.b];
+        r.v = {std::max(dn_t(std::hypot(mig(a.v), mig(b.v))), 0.0),
+               up_t(std::hypot(mag(a.v), mag(b.v)))};
+        if (g) {
+          // u / hypot(u, v), which lies in [-1, 1].
+          const I da = clip(div(a.v, r.v), -1.0, 1.0), db = clip(div(b.v, r.v), -1.0, 1.0);
+          for (int k = 0; k < 3; ++k)
+            if (has(i, k)) r.g[k] = chain(p, k, da, db);
+        }
+        return;
+      }
+      default: {  // a unary function
+        const Dual& a = regs_[p.a];
+        I x = a.v;
+        bool empty = false;
+        const Domain dom = domain_of(p.op);
+        if (dom.lower != -kInf || dom.upper != kInf) {
+          bool u;
+          x = restrict(a.v, dom, u, empty);
+          undef = undef || u;
+        }
+        // Where no member of a is in the domain: [-inf, inf].
+        r.v = empty ? full() : unary_value(p.op, x);
+        if (g) {
+          const I d = empty ? full() : unary_derivative(p.op, x, r.v);
           for (int k = 0; k < 3; ++k)
             if (has(i, k)) r.g[k] = mul(a.g[k], d);
         }
         return;
       }
-      default:
-        return;  // unreachable: the program was checked
     }
+  }
+
+  // Component k of the gradient of a binary instruction p from its partial
+  // derivatives: da d(a)/dk + db d(b)/dk, a term only where its argument
+  // depends on coordinate k.
+  I chain(const IntervalInstruction& p, int k, I da, I db) const {
+    const bool ha = has(p.a, k), hb = has(p.b, k);
+    if (ha && hb) return add(mul(regs_[p.a].g[k], da), mul(regs_[p.b].g[k], db));
+    if (ha) return mul(regs_[p.a].g[k], da);
+    if (hb) return mul(regs_[p.b].g[k], db);
+    return point(0.0);
   }
 
   const std::vector<IntervalInstruction>& prog_;
@@ -507,8 +731,7 @@ void check_interval_program(const std::vector<IntervalInstruction>& program) {
       if (p.a < 0 || p.a > 2) throw std::invalid_argument(at + ": axis out of range");
       continue;
     }
-    const bool binary = p.op == IV_ADD || p.op == IV_SUB || p.op == IV_MUL || p.op == IV_DIV ||
-                        p.op == IV_MIN || p.op == IV_MAX;
+    const bool binary = is_binary(p.op);
     const auto bad = [&](std::int32_t r) {
       return r < 0 || static_cast<std::size_t>(r) >= i;
     };
@@ -571,10 +794,8 @@ void BoxEvaluator::tighten(const double* l, const double* h, BoxBounds& b) {
 namespace {
 
 // Boxes [begin, end) of evaluate_intervals, with an evaluator of their own.
-void evaluate_range(const std::vector<IntervalInstruction>& program, const double* lo,
-                    const double* hi, std::size_t begin, std::size_t end, bool gradient,
-                    bool mean_value, IntervalResult& out) {
-  BoxEvaluator box(program, gradient, mean_value);
+void evaluate_range(BoxEvaluator& box, const double* lo, const double* hi, std::size_t begin,
+                    std::size_t end, bool gradient, IntervalResult& out) {
   BoxBounds b;
   for (std::size_t i = begin; i < end; ++i) {
     box.evaluate(lo + 3 * i, hi + 3 * i, b);
@@ -589,8 +810,8 @@ void evaluate_range(const std::vector<IntervalInstruction>& program, const doubl
   }
 }
 
-// Boxes per thread below which one thread does all the work.
-constexpr std::size_t kPerThread = 512;
+// Boxes per work item, and at least per thread.
+constexpr std::size_t kPerItem = 512;
 
 }  // namespace
 
@@ -606,19 +827,15 @@ IntervalResult evaluate_intervals(const std::vector<IntervalInstruction>& progra
     out.glo.assign(3 * n, 0.0);
     out.ghi.assign(3 * n, 0.0);
   }
-  // Boxes are independent: split them over the cores (each writes its own rows,
-  // so the result does not depend on the split).
-  const std::size_t cores = std::max(1u, std::thread::hardware_concurrency());
-  const std::size_t parts = std::max<std::size_t>(1, std::min(cores, n / kPerThread));
-  std::vector<std::thread> threads;
-  const std::size_t step = (n + parts - 1) / std::max<std::size_t>(parts, 1);
-  for (std::size_t t = 1; t < parts; ++t) {
-    const std::size_t b = t * step, e = std::min(n, b + step);
-    threads.emplace_back(evaluate_range, std::cref(program), lo, hi, b, e, gradient, mean_value,
-                         std::ref(out));
-  }
-  evaluate_range(program, lo, hi, 0, std::min(n, step), gradient, mean_value, out);
-  for (auto& t : threads) t.join();
+  // Boxes are independent: ranges of kPerItem boxes spread over the cores
+  // (each writes its own rows, so the result does not depend on the split).
+  const std::size_t items = (n + kPerItem - 1) / kPerItem;
+  for_each_on_cores(
+      items, [&] { return BoxEvaluator(program, gradient, mean_value); },
+      [&](BoxEvaluator& box, std::size_t t) {
+        evaluate_range(box, lo, hi, t * kPerItem, std::min(n, (t + 1) * kPerItem), gradient, out);
+      },
+      std::max<std::size_t>(1, n / kPerItem));
   return out;
 }
 

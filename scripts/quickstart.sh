@@ -52,7 +52,7 @@ stamp="$venv/.rdmesh-source-hash"
 hash=$(find pyproject.toml CMakeLists.txt cpp python/rdmesh -type f \( -name "*.py" -o -name "*.pyi" -o -name "*.cpp" -o -name "*.hpp" -o -name "*.toml" -o -name "*.txt" \) | LC_ALL=C sort | xargs cat | sha256sum | cut -d' ' -f1)
 if [[ ! -f "$stamp" || "$(cat "$stamp")" != "$hash" ]] || ! "$venv/bin/python" -c "import rdmesh" 2>/dev/null; then
   say "building and installing rdmesh (C++ extension against CGAL; about a minute)"
-  "${pip[@]}" install ".[render,test]"
+  "${pip[@]}" install ".[render,progress,test]"
   echo "$hash" >"$stamp"
 fi
 

@@ -450,6 +450,28 @@ def test_api_progress_true_shows_a_bar_on_stderr(capfd, monkeypatch):
     assert captured.err.endswith("\n")
 
 
+@pytest.fixture
+def without_tqdm(monkeypatch):
+    """tqdm, an optional dependency, as if not installed."""
+    for name in ("tqdm", "tqdm.contrib", "tqdm.contrib.logging"):
+        monkeypatch.setitem(sys.modules, name, None)
+
+
+def test_api_progress_true_without_tqdm_says_what_to_install(without_tqdm):
+    with pytest.raises(ImportError, match=r"needs tqdm: pip install 'rdmesh\[progress\]'"):
+        rdmesh.mesh_surface(SURFACES["sphere"].make(), radius_bound=0.3, progress=True)
+    # Without a bar to show nothing is needed.
+    with ProgressBar(disable=True) as bar:
+        bar.update({"round": 1, "vertices": 10})
+
+
+def test_cli_runs_without_a_bar_without_tqdm(without_tqdm, tmp_path, capsys):
+    # The bar is on by default; without tqdm the run goes on without it.
+    assert cli.main(["mesh", "sphere", "--radius", "0.3", "-o", str(tmp_path / "s.ply")]) == 0
+    assert capsys.readouterr().err == ""
+    assert (tmp_path / "s.ply").exists()
+
+
 class _InterruptOnce(io.StringIO):
     """A stream whose first write of a bar raises KeyboardInterrupt (Ctrl-C mid-draw)."""
 

@@ -7,8 +7,9 @@ import itertools
 import numpy as np
 import pytest
 from meshcheck import face_normals
+from rdmesh._geometry import circumradii
 from rdmesh.core import BAD, KNOWN, OUTWARD, RESTRICTED, _rdt
-from rdmesh.refine.criteria import FacetCriteria, circumradii
+from rdmesh.refine.criteria import FacetCriteria
 from rdmesh.refine.facets import DualSamples, evaluate_facets
 from rdmesh.surfaces import SURFACES
 

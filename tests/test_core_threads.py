@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ast
 import math
+import os
 import subprocess
 import sys
 import textwrap
@@ -168,6 +169,73 @@ def test_interpreter_exits_cleanly_after_use():
     )
     res = _run(script)
     assert res.returncode == 0 and res.stderr == "", res.stderr[-3000:]
+
+
+# -- work spread over threads -----------------------------------------------------------
+
+# Runs in a child process: an exception escaping a worker thread would end it
+# through std::terminate (a negative return code) instead of reaching Python.
+WORKER_FAULT = textwrap.dedent(
+    """
+    import sys
+
+    import numpy as np
+    from rdmesh.core import _rdt
+    from rdmesh.surfaces.expressions import parse_expression
+    from rdmesh.surfaces.interval_program import compile_program
+
+    ops, consts = compile_program(parse_expression("x**2 + y**2 + z**2 - 1")._root)
+    rng = np.random.default_rng(0)
+    lo = rng.uniform(-1, 1, (50_000, 3))
+    hi = lo + 0.01
+    first = np.array([0, 500])  # one group of boxes, around every segment
+    calls = {
+        "evaluate_intervals": lambda: _rdt.evaluate_intervals(ops, consts, lo, hi, True, True),
+        "isolate_segment_roots": lambda: _rdt.isolate_segment_roots(ops, consts, lo, hi, 1e-6),
+        "segment_pieces": lambda: _rdt.segment_pieces(
+            lo, hi, np.zeros(len(lo), np.int64), first, lo[:500], hi[:500] + 1.0, 0.0),
+    }
+    for name, call in calls.items():
+        want = call()
+        _rdt._fail_worker_for_testing(3)
+        try:
+            call()
+        except RuntimeError as exc:
+            assert "worker thread failed" in str(exc), exc
+        else:
+            raise AssertionError(name + ": no exception")
+        assert _rdt._fail_worker_for_testing(0) == 0
+        # Nothing is left half-done: the next call gives the same result.
+        got = call()
+        for a, b in zip(want, got):
+            assert np.array_equal(a, b), name
+        sys.stdout.write(name + " ")
+    """
+)
+
+
+def test_an_exception_in_a_worker_thread_reaches_python():
+    if _rdt.usable_cores() < 2:
+        pytest.skip("one usable CPU: the core starts no worker thread")
+    res = _run(WORKER_FAULT)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert res.stdout.split() == ["evaluate_intervals", "isolate_segment_roots", "segment_pieces"]
+
+
+def test_threads_follow_the_cpus_this_process_may_use():
+    assert _rdt.usable_cores() == len(os.sched_getaffinity(0))
+    one = min(os.sched_getaffinity(0))
+    script = textwrap.dedent(
+        f"""
+        import os
+        os.sched_setaffinity(0, {{{one}}})
+        from rdmesh.core import _rdt
+        print(_rdt.usable_cores())
+        """
+    )
+    res = _run(script)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert res.stdout.split() == ["1"]
 
 
 # -- flag bits ----------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""rdmesh.criteria: triangle quality, circumcentres and the facet criteria."""
+"""Triangle quality and circumcentres (rdmesh._geometry) and the facet criteria."""
 
 from __future__ import annotations
 
@@ -7,13 +7,8 @@ import math
 import numpy as np
 import pytest
 from meshcheck import circumcentre_ref, triangle_angles_deg
-from rdmesh.refine.criteria import (
-    FacetCriteria,
-    circumcentres,
-    circumradii,
-    min_angles,
-    sin2_min_angle,
-)
+from rdmesh._geometry import circumcentres, circumradii, min_angles, sin2_min_angle
+from rdmesh.refine.criteria import FacetCriteria
 
 
 def _random_triangles(n, seed=0):

@@ -108,6 +108,16 @@ def test_surface_error_types_are_value_errors():
     assert not issubclass(BudgetExceeded, ValueError)
 
 
+def test_ctrl_c_is_not_a_budget_stop():
+    # Catching a budget stop to go on with the partial mesh must not swallow
+    # Ctrl-C; StoppedEarly catches every early stop with its mesh.
+    assert not issubclass(rdmesh.Interrupted, BudgetExceeded)
+    for cls in (BudgetExceeded, rdmesh.Interrupted, rdmesh.RefinementStalled):
+        assert issubclass(cls, rdmesh.StoppedEarly)
+        exc = cls("stopped", mesh="the mesh", reason="why")
+        assert (exc.mesh, exc.reason, str(exc)) == ("the mesh", "why", "stopped")
+
+
 @pytest.mark.parametrize(
     ("sphere", "match"),
     [

@@ -1,24 +1,29 @@
-"""The core's interval evaluator and cell pruning, against their numpy counterparts.
+"""The core's interval evaluator, subdivision, root isolation and cell pruning,
+against their numpy reference (tests/interval_reference.py).
 
 The containment tests of every rule run on both evaluators in test_intervals.py;
-these check what is particular to the core: which expressions it takes, that it
-agrees with the numpy rules, that splitting the boxes over threads changes
-nothing, and its errors.
+these check what is particular to the core: that it agrees with the reference
+rules on every function, that splitting the work over threads changes nothing,
+and its errors.
 """
 
 from __future__ import annotations
 
+from contextlib import contextmanager, nullcontext
 from fractions import Fraction
 
+import interval_reference as reference
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from rdmesh.core import boxes_outside_cells, evaluate_intervals
+from rdmesh.core import INTERVAL_OPS, boxes_outside_cells, evaluate_intervals
 from rdmesh.surfaces import intervals
 from rdmesh.surfaces.builtin import BUILTIN_EXPRESSIONS
 from rdmesh.surfaces.expressions import parse_expression
 from rdmesh.surfaces.interval_program import compile_program
+from rdmesh.surfaces.ir import NARY, UNARY
+from rdmesh.topology import proven_cells
 from scipy.spatial import Delaunay
 
 HARD = [
@@ -34,30 +39,46 @@ def _boxes(rng, n, spread=2.0):
     return c - w, c + w
 
 
-@pytest.mark.parametrize("text", [*BUILTIN_EXPRESSIONS.values(), *HARD])
-def test_core_takes_the_builtin_and_common_expressions(text):
-    assert compile_program(parse_expression(text)._root) is not None
+#: Every function of the grammar, on composite arguments (min, max and hypot
+#: with three: the core folds them two at a time).
+FUNCTION_CALLS = [
+    *(f"{name}(x*y + 0.5) - 2*{name}(z)" for name in UNARY),
+    *(f"{name}(x - z, y*x, 0.3 - y)" for name in NARY if NARY[name][1] is None),
+    "atan2(y, x) - z",
+    "atan2(x*y - 1, z)",
+    "pow(x, y) + pow(y*y + 0.1, z)",
+    "x**y + z",
+    "(x*x)**(y - z)",
+]
 
 
-@pytest.mark.parametrize("text", ["tan(x) + y", "atan2(y, x) - z", "x**y + z", "hypot(x, y) - 1"])
-def test_functions_without_a_core_rule_stay_on_numpy(text):
-    assert compile_program(parse_expression(text)._root) is None
-    # ... and are still bounded (by the numpy evaluator).
-    r = parse_expression(text).interval_gradient(np.full((1, 3), 0.2), np.full((1, 3), 0.3))
-    assert np.isfinite(r.lo).all() and np.isfinite(r.glo).all()
+@contextmanager
+def reference_rules():
+    """The numpy reference in place of the core, for bounds and subdivision."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(intervals, "_bounds", reference.bounds)
+        mp.setattr(proven_cells, "_subdivide", reference.subdivide)
+        yield
 
 
-@pytest.mark.parametrize("text", [*BUILTIN_EXPRESSIONS.values(), *HARD])
+def test_opcodes_come_from_the_core():
+    ops, _ = compile_program(parse_expression("hypot(x, y, z) - atan2(y, x)**2")._root)
+    names = {v: k for k, v in INTERVAL_OPS.items()}
+    assert [names[o] for o in ops[:, 0]] == [
+        "var", "var", "hypot", "var", "hypot", "var", "var", "atan2", "powc", "sub",
+    ]  # fmt: skip
+    assert sorted(INTERVAL_OPS.values()) == list(range(len(INTERVAL_OPS)))
+
+
+@pytest.mark.parametrize("text", [*BUILTIN_EXPRESSIONS.values(), *HARD, *FUNCTION_CALLS])
 @pytest.mark.parametrize("mean_value", [False, True])
-def test_core_agrees_with_the_numpy_rules(text, mean_value, monkeypatch):
+def test_core_agrees_with_the_reference_rules(text, mean_value):
     rng = np.random.default_rng(7)
     lo, hi = _boxes(rng, 3000)
     expr = parse_expression(text)
-    out = {}
-    for native in (True, False):
-        monkeypatch.setattr(intervals, "NATIVE", native)
-        out[native] = intervals.interval_gradient(expr, lo, hi, mean_value=mean_value)
-    core, ref = out[True], out[False]
+    core = intervals.interval_gradient(expr, lo, hi, mean_value=mean_value)
+    with reference_rules():
+        ref = intervals.interval_gradient(expr, lo, hi, mean_value=mean_value)
     assert np.array_equal(core.undefined, ref.undefined)
     # Same rules, rounded a little differently: a few ulps of the bounds' size.
     for a, b in ((core.lo, ref.lo), (core.hi, ref.hi), (core.glo, ref.glo), (core.ghi, ref.ghi)):
@@ -182,9 +203,10 @@ def _holds(lo: float, hi: float, exact: Fraction) -> bool:
     return (lo == -np.inf or Fraction(lo) <= exact) and (hi == np.inf or exact <= Fraction(hi))
 
 
-@pytest.fixture(params=["core", "numpy"])
+@pytest.fixture(params=["core", "reference"])
 def evaluator_both(request, monkeypatch):
-    monkeypatch.setattr(intervals, "NATIVE", request.param == "core")
+    if request.param == "reference":
+        monkeypatch.setattr(intervals, "_bounds", reference.bounds)
     return request.param
 
 
@@ -221,18 +243,17 @@ def _cell_case(text, seed, n):
         "x**2/1.44 + y**2 + z**2/0.49 + 0.3*sin(4*x) - 1",
     ],
 )
-def test_core_subdivision_fails_the_same_facets_and_cells_as_numpy(seed, text, n):
+def test_core_subdivision_fails_the_same_facets_and_cells_as_the_reference(seed, text, n):
     # Whether an owner fails does not depend on the order boxes are taken in,
-    # so the core's depth-first run and the numpy level-by-level run must fail
-    # exactly the same facets and cells.
+    # so the core's depth-first run and the reference's level-by-level run
+    # must fail exactly the same facets and cells.
     from rdmesh.topology.proven_cells import prove_cells, proven_loop_test
 
     s, rdt, v, normals, geo, tree = _cell_case(text, seed, n)
     cells = np.arange(len(v))
     runs = {}
     for native in (True, False):
-        with pytest.MonkeyPatch.context() as mp:
-            mp.setattr(intervals, "NATIVE", native)
+        with nullcontext() if native else reference_rules():
             loop = proven_loop_test(s, v, geo, tree)
             proof = prove_cells(s, rdt, v, normals, geo, tree, cells)
             # The loop proof again, from the proven cells' leaves.
@@ -253,15 +274,15 @@ def test_core_subdivision_fails_the_same_facets_and_cells_as_numpy(seed, text, n
     "text",
     ["(sqrt(x**2 + y**2) - 0.8)**2 + z**2 - 0.09", "x**2/1.44 + y**2 + z**2/0.49 - 1"],
 )
-def test_proven_cells_leaves_hold_every_surface_point_of_the_cell(text, native, monkeypatch):
+def test_proven_cells_leaves_hold_every_surface_point_of_the_cell(text, native):
     # The loop proof starts from a proven cell's leaves, so they must hold
     # all of the cell's part of the surface: put many points on the surface,
     # each in the cell of its nearest sample, and find each in a leaf.
     from rdmesh.topology.proven_cells import prove_cells
 
-    monkeypatch.setattr(intervals, "NATIVE", native)
     s, rdt, v, normals, geo, tree = _cell_case(text, 1, 60)
-    proof = prove_cells(s, rdt, v, normals, geo, tree, np.arange(len(v)))
+    with nullcontext() if native else reference_rules():
+        proof = prove_cells(s, rdt, v, normals, geo, tree, np.arange(len(v)))
     assert proof.seeded.sum() >= 10  # enough proven cells to test
     rng = np.random.default_rng(5)
     x = rng.uniform(-1.3, 1.3, (40000, 3))
@@ -348,10 +369,10 @@ def test_core_subdivision_rejects_bad_input(change, match):
         "min(sqrt(x**2+y**2+z**2)-1, sqrt((x-1.5)**2+(y-0.3)**2+(z-0.2)**2)-0.02)",
     ],
 )
-def test_core_isolation_finds_the_pieces_of_the_numpy_bisection(text, seed):
+def test_core_isolation_finds_the_pieces_of_the_reference_bisection(text, seed):
     # Found and pending pieces are the leaves of one bisection tree, so the
-    # core (depth first, over the cores) and numpy (level by level) must give
-    # exactly the same ones, with the same evaluator's bounds.
+    # core (depth first, over the cores) and the reference (level by level)
+    # must give exactly the same ones, with the same rules' bounds.
     from rdmesh.sampling.isolate import isolate_roots
 
     expr = parse_expression(text)
@@ -371,9 +392,8 @@ def test_core_isolation_finds_the_pieces_of_the_numpy_bisection(text, seed):
               np.r_[np.full(m, 0.4), np.ones(m)])  # fmt: skip
     for part in (None, pieces):
         got = isolate_roots(expr, a, b, 1e-7, part)
-        with pytest.MonkeyPatch.context() as mp:
-            mp.setattr(intervals, "NATIVE", False)
-            ref = isolate_roots(expr, a, b, 1e-7, part)
+        with reference_rules():
+            ref = reference.isolate_roots(expr, a, b, 1e-7, part)
         for field in ("segment", "lo", "hi", "count", "resolved", "pending_segment",
                       "pending_lo", "pending_hi", "boxes"):  # fmt: skip
             assert np.array_equal(getattr(got, field), getattr(ref, field)), field

@@ -1,4 +1,8 @@
-"""Interval enclosures: containment of sampled values and gradients, exact cases, domains."""
+"""Interval enclosures: containment of sampled values and gradients, exact cases, domains.
+
+Every test runs twice: on the library's evaluator (the core's, C++) and on the
+numpy reference of the same rules (tests/interval_reference.py).
+"""
 
 from __future__ import annotations
 
@@ -7,14 +11,17 @@ import math
 import zlib
 from fractions import Fraction
 
+import interval_reference
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from rdmesh.surfaces import SURFACES, intervals
+from rdmesh.core import INTERVAL_OPS
+from rdmesh.surfaces import SURFACES, intervals, pointwise
 from rdmesh.surfaces.builtin import BUILTIN_EXPRESSIONS
-from rdmesh.surfaces.expressions import _ALIASES, _NARY, _UNARY, FUNCTIONS, parse_expression
+from rdmesh.surfaces.expressions import FUNCTIONS, parse_expression
 from rdmesh.surfaces.intervals import Enclosure, GradientEnclosure, interval, interval_gradient
+from rdmesh.surfaces.ir import ALIASES, NARY, UNARY
 
 #: Coordinates where functions of the grammar have kinks, poles, jumps or domain edges.
 SPECIAL = np.array(
@@ -23,11 +30,11 @@ SPECIAL = np.array(
 HALF_WIDTHS = np.array([0.0, 1e-15, 1e-9, 1e-4, 0.01, 0.3, 1.0, 3.0])
 
 
-@pytest.fixture(autouse=True, params=["core", "numpy"])
+@pytest.fixture(autouse=True, params=["core", "reference"])
 def evaluator(request, monkeypatch):
-    """Every test runs on both evaluators: the core's (C++, for the functions it
-    has rules for) and the numpy one (every function)."""
-    monkeypatch.setattr(intervals, "NATIVE", request.param == "core")
+    """Every test runs on both evaluators: the core's and the numpy reference."""
+    if request.param == "reference":
+        monkeypatch.setattr(intervals, "_bounds", interval_reference.bounds)
     return request.param
 
 
@@ -69,7 +76,7 @@ def sample_points(rng: np.random.Generator, lo: np.ndarray, hi: np.ndarray, k: i
 def exact_gradient(expr, points: np.ndarray) -> np.ndarray:
     """The forward-mode gradient at (N, 3) points, NaN/inf where it is not finite."""
     with np.errstate(all="ignore"):
-        _, g = expr._root.dual((points[:, 0], points[:, 1], points[:, 2]))
+        _, g = pointwise.dual(expr._root, (points[:, 0], points[:, 1], points[:, 2]))
     if g is None:
         return np.zeros_like(points)
     return np.array(np.broadcast_to(np.asarray(g, dtype=float), (3, len(points))).T)
@@ -153,14 +160,20 @@ def test_checker_catches_a_wrong_enclosure():
 
 def _calls(name: str) -> list[str]:
     """Texts exercising a function on plain and composite arguments."""
-    key = _ALIASES.get(name, name)
-    if key in _UNARY:
+    key = ALIASES.get(name, name)
+    if key in UNARY:
         return [f"{name}(x)", f"{name}(2*x - y) * z", f"{name}(x*y + 0.5) + {name}(z)"]
     if key == "pow":
         return ["pow(x, y)", "pow(x, 3)", "pow(y, -2) + pow(z, 0.5)", "pow(x*x + 0.5, y - z)"]
-    if _NARY[key][1] == 2:
+    if NARY[key][1] == 2:
         return [f"{name}(y, x)", f"{name}(x - z, y*x)"]
     return [f"{name}(x, y)", f"{name}(x, y, z)", f"{name}(x*y, 1 - z, x + 0.25)"]
+
+
+def test_every_function_has_a_rule_in_both_evaluators():
+    names = {ALIASES.get(n, n) for n in FUNCTIONS}
+    assert names <= set(INTERVAL_OPS)
+    assert set(UNARY) - {"tan"} <= set(interval_reference.UNARY_RULES)
 
 
 @pytest.mark.parametrize("name", FUNCTIONS)
@@ -200,7 +213,7 @@ def test_operators_contain_samples(text):
 
 # -- random expressions --------------------------------------------------------------------
 
-_UNARY_NAMES = [n for n in FUNCTIONS if _ALIASES.get(n, n) in _UNARY]
+_UNARY_NAMES = [n for n in FUNCTIONS if ALIASES.get(n, n) in UNARY]
 
 _LEAVES = st.sampled_from(["x", "y", "z", "x", "y", "z", "1", "2", "0.5", "pi", "3", "0"])
 

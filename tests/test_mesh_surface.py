@@ -371,3 +371,24 @@ def test_worker_threads_give_the_same_mesh(torus_case):
     assert np.array_equal(two.vertices, one.vertices)
     assert np.array_equal(two.faces, one.faces)
     assert two.stats["evaluations"] == one.stats["evaluations"]
+
+
+def test_worker_pool_lives_as_long_as_the_pipeline(monkeypatch):
+    """One pool of evaluation threads per run, not one per chunk, and it stops."""
+    from rdmesh.refine import pipeline
+
+    pools = []
+
+    class Counted(pipeline.ThreadPoolExecutor):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            pools.append(self)
+
+    monkeypatch.setattr(pipeline, "ThreadPoolExecutor", Counted)
+    monkeypatch.setattr(pipeline, "CHUNK", 256)  # several chunks a round
+    monkeypatch.setattr(pipeline, "CORE_CHUNK", 256)
+    m = rdmesh.mesh_surface(SURFACES["sphere"].make(), radius_bound=0.15, workers=2)
+    assert m.stats["rounds"] >= 2 and m.stats["facets_evaluated"] > 10 * 256
+    # The core's job thread and the evaluation pool, both stopped.
+    assert [p._max_workers for p in pools] == [1, 2]
+    assert all(p._shutdown for p in pools)

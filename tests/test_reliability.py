@@ -239,3 +239,39 @@ def test_ctrl_c_in_the_report_gives_the_mesh(monkeypatch):
         rdmesh.mesh_surface(SURFACES["sphere"].make(), radius_bound=0.3)
     m = info.value.mesh
     assert m.is_closed_manifold() and not m.complete and m.report == {}
+
+
+def test_ctrl_c_during_refinement_is_not_a_budget_stop():
+    rounds = []
+
+    def progress(info):
+        rounds.append(info["round"])
+        if len(rounds) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(rdmesh.Interrupted) as info:
+        try:
+            rdmesh.mesh_surface(SURFACES["torus"].make(), radius_bound=0.1, progress=progress)
+        except rdmesh.BudgetExceeded:  # going on with a budget's partial mesh
+            pytest.fail("Ctrl-C was caught as a budget stop")
+    assert info.value.reason == "interrupted"
+    m = info.value.mesh
+    assert not m.complete and len(m.faces) > 0 and m.stats["rounds"] == 2
+
+
+def test_taking_candidates_keeps_what_is_not_per_point():
+    from dataclasses import fields
+
+    c = Candidates(
+        "stage", np.arange(9.0).reshape(3, 3), np.ones(3), np.array([True, False, True]), 7,
+        stuck=np.full((2, 3), 5.0), soft=np.array([False, True, False]),
+    )  # fmt: skip
+    keep = np.array([True, False, True])
+    t = c.take(keep)
+    per_point = {"centres", "radii", "topological", "soft"}
+    for f in fields(Candidates):
+        want = getattr(c, f.name)
+        want = want[keep] if f.name in per_point else want
+        assert np.array_equal(getattr(t, f.name), want), f.name
+    # A scalar topological flag is spread over the points kept.
+    assert Candidates("s", c.centres, c.radii, True).take(keep).topological.tolist() == [True] * 2

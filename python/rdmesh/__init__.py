@@ -18,6 +18,7 @@ from ._errors import (
     OracleError,
     RdmeshError,
     RefinementStalled,
+    StoppedEarly,
 )
 from .api import mesh_surface
 from .features import FeatureError, MeshFeatures
@@ -50,6 +51,7 @@ __all__ = [
     "OracleError",
     "RdmeshError",
     "RefinementStalled",
+    "StoppedEarly",
     "SurfaceMesh",
     "VolumeSurface",
     "mesh_surface",

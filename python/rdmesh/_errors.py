@@ -32,16 +32,42 @@ class CGALError(RdmeshError, RuntimeError):
     """CGAL reported a failure inside the C++ core."""
 
 
-class BudgetExceeded(RdmeshError):
-    """Refinement hit a budget (vertices, rounds or time) before it finished.
+class ExpressionError(RdmeshError, ValueError):
+    """The text is not an accepted expression (see
+    :func:`rdmesh.surfaces.expressions.parse_expression`).
+
+    Attributes
+    ----------
+    text : str
+        The expression text.
+    reason : str
+        What is wrong, e.g. ``"unknown name 'os'"``.
+    column : int or None
+        1-based column of the offending part, when known.
+    """
+
+    def __init__(self, text: str, reason: str, column: int | None = None) -> None:
+        shown = text if len(text) <= 60 else text[:57] + "..."
+        where = f" (column {column})" if column is not None else ""
+        super().__init__(f"invalid expression {shown!r}: {reason}{where}")
+        self.text = text
+        self.reason = reason
+        self.column = column
+
+
+class StoppedEarly(RdmeshError):
+    """Refinement stopped before it finished: a budget ran out
+    (:class:`BudgetExceeded`), it stalled (:class:`RefinementStalled`) or
+    Ctrl-C interrupted it (:class:`Interrupted`). Catch this to get the
+    partial mesh whatever the cause.
 
     Attributes
     ----------
     mesh : SurfaceMesh
-        The mesh as it stood when the budget ran out, flagged
+        The mesh as it stood when refinement stopped, flagged
         ``complete=False``. It may not be watertight.
     reason : str
-        Which budget ran out.
+        Why refinement stopped.
     """
 
     def __init__(self, message: str, mesh: Any = None, reason: str = "") -> None:
@@ -50,8 +76,17 @@ class BudgetExceeded(RdmeshError):
         self.reason = reason
 
 
-class Interrupted(BudgetExceeded):
-    """Refinement was interrupted (Ctrl-C); ``.mesh`` holds the partial mesh."""
+class BudgetExceeded(StoppedEarly):
+    """Refinement hit a budget (vertices, rounds or time) before it finished;
+    ``.mesh`` holds the partial mesh, ``.reason`` says which budget ran out."""
+
+
+class Interrupted(StoppedEarly):
+    """Refinement was interrupted (Ctrl-C); ``.mesh`` holds the partial mesh.
+
+    Not a :class:`BudgetExceeded`: code that catches a budget stop to go on
+    with the partial mesh does not swallow a Ctrl-C.
+    """
 
 
 class RefinementStalled(BudgetExceeded):

@@ -39,7 +39,7 @@ import os
 import sys
 
 from . import __version__, core
-from ._errors import BudgetExceeded, Interrupted, RdmeshError
+from ._errors import Interrupted, RdmeshError, StoppedEarly
 from .api import METHODS, mesh_surface
 from .io.result import MESH_FORMATS, SurfaceMesh
 from .refine.methods import TOPOLOGIES
@@ -567,6 +567,7 @@ def _write(mesh: SurfaceMesh, args, title: str) -> str:
 
 def _run(args, surface: ImplicitSurface, **opts) -> int:
     from .progress import ProgressBar
+    from .progress import available as progress_available
 
     _check_writable(args.output)
     if args.png:
@@ -577,9 +578,10 @@ def _run(args, surface: ImplicitSurface, **opts) -> int:
     )
     total = opts.get("max_vertices")
     try:
-        with ProgressBar(total=total, disable=args.quiet) as bar:
+        # Without tqdm (an optional dependency) the run goes on without a bar.
+        with ProgressBar(total=total, disable=args.quiet or not progress_available()) as bar:
             mesh = mesh_surface(surface, progress=bar.update, **opts)
-    except BudgetExceeded as exc:
+    except StoppedEarly as exc:  # a budget, a stall or Ctrl-C: write the partial mesh
         interrupted = isinstance(exc, Interrupted)
         why = "interrupted" if interrupted else f"stopped early ({exc.reason or exc})"
         status = EXIT_INTERRUPTED if interrupted else EXIT_BUDGET

@@ -3,14 +3,30 @@
 The bar stays hidden for the first ``delay`` seconds, so short runs print
 nothing. While it is shown, log records go through ``tqdm.write`` (tqdm's own
 ``logging_redirect_tqdm``), so they appear above the bar instead of through it.
+
+tqdm is an optional dependency (``pip install 'rdmesh[progress]'``): without
+it a bar that should be shown raises ImportError saying so, and the CLI runs
+without a bar.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import sys
 import time
 from contextlib import ExitStack
 from typing import IO
+
+#: What to install for a progress bar.
+INSTALL_HINT = "pip install 'rdmesh[progress]' (or tqdm)"
+
+
+def available() -> bool:
+    """True when tqdm, which draws the bar, is installed."""
+    try:
+        return importlib.util.find_spec("tqdm") is not None
+    except ValueError:  # tqdm in sys.modules as None (blocked) or without a spec
+        return False
 
 
 class ProgressBar:
@@ -31,6 +47,11 @@ class ProgressBar:
     file : text stream, default sys.stderr
     disable : bool, default False
         Show nothing (``update`` still accepts calls).
+
+    Raises
+    ------
+    ImportError
+        On entering, unless disabled, when tqdm is not installed.
     """
 
     def __init__(
@@ -52,8 +73,13 @@ class ProgressBar:
         file = self.file if self.file is not None else sys.stderr
         if self.disable or file is None:  # no stderr (pythonw): nowhere to draw
             return self
-        from tqdm import tqdm
-        from tqdm.contrib.logging import logging_redirect_tqdm
+        try:
+            from tqdm import tqdm
+            from tqdm.contrib.logging import logging_redirect_tqdm
+        except ImportError as exc:
+            raise ImportError(
+                f"the progress bar (progress=True) needs tqdm: {INSTALL_HINT}", name="tqdm"
+            ) from exc
 
         class Bar(tqdm):
             """Stays hidden for ``delay`` seconds even when a log record asks

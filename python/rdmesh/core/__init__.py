@@ -8,10 +8,12 @@ of balls that makes a batch a valid sequential run; ``VolumeSampler``, the
 B-spline sampler of :class:`rdmesh.VolumeSurface`; and ``MeshDistance``, the
 distance, side and winding-number queries behind ``MeshSurface``;
 ``evaluate_intervals``, interval bounds of a compiled expression over boxes
-(:mod:`rdmesh.surfaces.interval_program`); ``boxes_outside_cells``, the
-Voronoi-cell pruning of the proven topological-ball tests; and
-``prove_boxes``, their whole subdivision, owner by owner, over the cores;
-and ``isolate_segment_roots``, proven root isolation on segments.
+(:mod:`rdmesh.surfaces.interval_program`, with the opcodes ``INTERVAL_OPS``);
+``boxes_outside_cells``, the Voronoi-cell pruning of the proven
+topological-ball tests; and ``prove_boxes``, their whole subdivision, owner by
+owner, over the cores; and ``isolate_segment_roots``, proven root isolation on
+segments. Work that the core spreads over threads uses ``usable_cores()`` of
+them, the CPUs this process may run on.
 
 Facet flag bits (set by Python, kept by the core per facet):
 ``RESTRICTED`` (the dual meets the surface), ``BAD`` (fails a criterion),
@@ -25,6 +27,8 @@ insertion only shortens its dual, and does not hand it out again).
 from ._rdt import (
     BAD,
     CGAL_VERSION,
+    INTERVAL_OPS,
+    INTERVAL_REL_WIDENING,
     KNOWN,
     OUTWARD,
     RESTRICTED,
@@ -41,11 +45,14 @@ from ._rdt import (
     segment_pieces,
     select_independent,
     trim_heap,
+    usable_cores,
 )
 
 __all__ = [
     "BAD",
     "CGAL_VERSION",
+    "INTERVAL_OPS",
+    "INTERVAL_REL_WIDENING",
     "KNOWN",
     "MeshDistance",
     "OUTWARD",
@@ -62,4 +69,5 @@ __all__ = [
     "segment_pieces",
     "select_independent",
     "trim_heap",
+    "usable_cores",
 ]

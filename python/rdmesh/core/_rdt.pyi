@@ -1,5 +1,6 @@
-# Type stub of rdmesh._rdt, the C++ core (cpp/module.cpp).  Kept in step with
-# the bindings by tests/test_core_threads.py::test_stub_matches_the_bindings.
+# Type stub of rdmesh._rdt, the C++ core (cpp/module.cpp and the bind_*.cpp files
+# it lists).  Kept in step with the bindings by
+# tests/test_core_threads.py::test_stub_matches_the_bindings.
 
 from typing import Final
 
@@ -12,6 +13,8 @@ BAD: Final[int]
 OUTWARD: Final[int]
 TOPO: Final[int]
 KNOWN: Final[int]
+INTERVAL_OPS: Final[dict[str, int]]  # opcode of each interval instruction, by name
+INTERVAL_REL_WIDENING: Final[float]
 
 _SegmentSamples = tuple[
     npt.NDArray[np.int64],  # (k+1,) offsets
@@ -126,6 +129,8 @@ def scan_samples(
 def select_independent(centres: npt.ArrayLike, radii: npt.ArrayLike) -> npt.NDArray[np.int64]: ...
 def trim_heap() -> bool: ...
 def _fail_allocation_for_testing(n: int) -> int: ...
+def _fail_worker_for_testing(n: int) -> int: ...
+def usable_cores() -> int: ...
 
 class MeshDistance:
     def __init__(

@@ -8,9 +8,13 @@ from typing import Any
 
 import numpy as np
 
+from .._geometry import min_angles
 from ..features.check import MeshFeatures
-from ..refine.criteria import min_angles
-from ..topology.complex import complex_status, component_topology
+from ..topology.complex import (
+    component_topology,
+    is_closed_manifold,
+    is_manifold_with_boundary,
+)
 
 #: File formats :meth:`SurfaceMesh.save` writes (through trimesh).
 MESH_FORMATS = ("ply", "obj", "stl", "off", "glb", "gltf", "3mf", "dae")
@@ -49,56 +53,19 @@ class SurfaceMesh:
     report : dict
         The topology report (:func:`rdmesh.topology.topology_report`), the
         same fields for every method, computed on the final samples:
-
-        ``tbp_holds``
-            True when every topological-ball test held (some only on samples),
-            nothing was left unresolved and the run completed.
-        ``certified``
-            True only when, besides, every test is proven
-            (:attr:`topology_certified`).
-        ``tests``
-            Per test (``voronoi_edge``, ``voronoi_facet``, ``voronoi_loop``,
-            ``disk``, ``isolated``, ``silhouette``): ``held``, ``level``
-            (``proven``, ``sampled``, ``failed`` or ``not tested``), ``violations`` at the end,
-            ``repaired`` (points inserted to repair it), ``basis`` ("exact",
-            "sampled", ...) and what it checks. With ``certify``,
-            ``voronoi_edge`` also has ``proof``: the interval check of every
-            Voronoi edge's crossings.
-        ``seeding``
-            How the components were found: ``level`` ``proven`` (interval
-            subdivision, certify mode: a seed on every component) or
-            ``sampled`` (grid scan), with the boxes' figures.
-        ``components``, ``euler``, ``boundary_loops``, ``closed_manifold``
-            Of the output mesh.
-        ``boundary``
-            A surface that leaves the bounding sphere or its clip box
-            (``topology="manifold-with-boundary"``): ``domain`` ("sphere" or
-            "box"), ``curve_loops`` traced on it, ``edge_crossings`` (box:
-            where the curve crosses a box edge, each a sample),
-            ``mesh_loops``, ``loops_match``, ``genus`` per component from
-            chi = 2 - 2g - b and ``euler_consistent`` (a whole genus, at
-            least 0); None otherwise.
-        ``unresolved_regions``, ``violation_regions``
-            Where points were refused by the spacing floor, or tests still fail:
-            ``centre``, ``radius`` and ``points`` of each cluster.
-        ``critical_points``
-            Topological-ball method: the height-function critical points used
-            as seeds and whether their Morse count matches the mesh.
-        ``statement``
-            What is certified and what rests on sampling, in words.
-        ``features``
-            With protected feature curves: how many curves, corners and
-            balls, and the feature check (``held``, ``edges_kept`` of
-            ``edges``, ``corners_kept``, where it ``failed``); None without.
+        ``tbp_holds``, ``certified``, ``tests`` (per test: ``held``,
+        ``level``, ``violations``, ``repaired``, ``basis``), ``seeding``,
+        ``components``, ``euler``, ``boundary_loops``, ``closed_manifold``,
+        ``boundary``, ``unresolved_regions``, ``violation_regions``,
+        ``critical_points``, ``statement`` and ``features`` (the feature
+        check, None without protected curves); :mod:`rdmesh.topology.report`
+        says what each holds.
     features : MeshFeatures or None
-        The protected feature curves (creases, sharp edges, clip boundaries)
-        as mesh vertex indices in order, the corners, and the outcome of the
-        feature check (:class:`rdmesh.features.MeshFeatures`); None when
-        nothing was protected.
+        The protected feature curves as mesh vertex indices, the corners and
+        the feature check (:class:`rdmesh.MeshFeatures`); None without.
     weights : (N,) float64 or None
-        Each vertex's weight: a protecting ball's radius squared (ball
-        centres are vertices on the feature curves), 0 for the other
-        vertices; None when nothing was protected.
+        A protecting ball's radius squared at its centre, 0 elsewhere; None
+        when nothing was protected.
     """
 
     vertices: np.ndarray
@@ -148,7 +115,7 @@ class SurfaceMesh:
 
     @property
     def ball_radii(self) -> np.ndarray:
-        """Radius of each face's surface Delaunay ball, ``(M,)``."""
+        """Radius of each face's surface Delaunay ball (power radius), ``(M,)``."""
         d = self.facet_centres - self.vertices[self.faces[:, 0]]
         r2 = np.einsum("ij,ij->i", d, d)
         if self.weights is not None:
@@ -167,25 +134,13 @@ class SurfaceMesh:
 
     def is_closed_manifold(self) -> bool:
         """True when every edge has two faces and every vertex one fan of faces."""
-        if len(self.faces) == 0:
-            return False
-        st = complex_status(self.faces, len(self.vertices))
-        used = np.unique(self.faces)
-        return bool(np.all(st.edge_count == 2) and np.all(st.vertex_fans[used] == 1))
+        return is_closed_manifold(self.faces, len(self.vertices))
 
     def is_manifold_with_boundary(self) -> bool:
         """True when every edge has one or two faces, every vertex one fan of
         faces, and some edge only one (a boundary): a surface meshed with
         ``topology="manifold-with-boundary"`` that leaves the bounding sphere."""
-        if len(self.faces) == 0:
-            return False
-        st = complex_status(self.faces, len(self.vertices))
-        used = np.unique(self.faces)
-        return bool(
-            np.all(st.edge_count <= 2)
-            and np.any(st.edge_count == 1)
-            and np.all(st.vertex_fans[used] == 1)
-        )
+        return is_manifold_with_boundary(self.faces, len(self.vertices))
 
     def topology(self) -> dict[str, Any]:
         """Components, and Euler characteristic, boundary loops and genus of each.
@@ -194,15 +149,7 @@ class SurfaceMesh:
         loops assumes orientable components, which every surface embedded in
         space without self-intersection and cut by a sphere is.
         """
-        chi, loops = component_topology(self.faces, len(self.vertices))
-        return {
-            "components": len(chi),
-            "euler": chi,
-            "boundary_loops": loops,
-            "genus": [(2 - c - b) / 2 for c, b in zip(chi, loops, strict=True)],
-            "closed_manifold": self.is_closed_manifold(),
-            "manifold_with_boundary": self.is_manifold_with_boundary(),
-        }
+        return _topology(self)
 
     def to_trimesh(self):
         """The mesh as a :class:`trimesh.Trimesh` (indices kept, no merging)."""
@@ -220,14 +167,8 @@ class SurfaceMesh:
         OSError
             If the file cannot be written.
         """
-        path = os.fspath(path)
-        ext = os.path.splitext(path)[1].lower().lstrip(".")
-        if ext not in MESH_FORMATS:
-            raise ValueError(
-                f"cannot write {path!r}: unknown mesh format {ext!r}; use one of "
-                f"{', '.join(MESH_FORMATS)}"
-            )
-        self.to_trimesh().export(path)
+        _check_format(path)
+        self.to_trimesh().export(os.fspath(path))
 
     def render(
         self, path: str | os.PathLike, *, title: str | None = None, size: int = 800
@@ -243,50 +184,79 @@ class SurfaceMesh:
 
     def summary(self) -> str:
         """A few lines: size, angles, topology, time."""
-        topo = self.topology()
-        genus = ", ".join(f"{g:g}" for g in topo["genus"])
-        lines = [
-            f"vertices {len(self.vertices)}, faces {len(self.faces)}",
-            f"min angle {self.min_angle:.2f} deg",
-            f"components {topo['components']} (genus {genus}), "
-            f"closed manifold: {'yes' if topo['closed_manifold'] else 'no'}"
-            + (
-                f", boundary loops {sum(topo['boundary_loops'])}"
-                if topo["manifold_with_boundary"]
-                else ""
-            ),
-            f"time {self.stats.get('seconds', float('nan')):.2f} s, "
-            f"{self.stats.get('rounds', 0)} rounds, "
-            f"{self.stats.get('evaluations', 0)} evaluations of f",
-        ]
-        if self.features is not None:
-            f = self.features
-            lines.append(
-                f"features: {len(f.curves)} curves, {len(f.corners)} corners kept"
-                if f.held
-                else f"features: {len(f.curves)} curves, {len(f.corners)} corners; NOT all kept "
-                f"({f.edges_kept} of {f.edges} curve edges, {f.corners_kept} corners)"
-            )
-        if not self.complete:
-            lines.append("INCOMPLETE: " + str(self.stats.get("stop_reason", "budget")))
-        if len(self.unresolved):
-            lines.append(f"unresolved refinement points: {len(self.unresolved)}")
-        if self.report:
-            failed = [k for k, t in self.report["tests"].items() if t["held"] is False]
-            if self.report.get("boundary") is not None:
-                box = self.report["boundary"].get("domain") == "box"
-                where = "its clip box" if box else "the bounding sphere"
-                held = f"not applicable (the surface leaves {where}), NOT certified"
-                failed = []
-            elif self.report.get("certified"):
-                held = "certified"
-            elif self.report["tbp_holds"]:
-                held = "held on samples, NOT certified"
-            else:
-                held = "NOT certified"
-            lines.append(
-                "topological ball property: "
-                + held
-                + (f" (failed: {', '.join(failed)})" if failed else "")
-            )
-        return "\n".join(lines)
+        return _summary(self)
+
+
+def _topology(mesh: SurfaceMesh) -> dict[str, Any]:
+    """:meth:`SurfaceMesh.topology`."""
+    chi, loops = component_topology(mesh.faces, len(mesh.vertices))
+    return {
+        "components": len(chi),
+        "euler": chi,
+        "boundary_loops": loops,
+        "genus": [(2 - c - b) / 2 for c, b in zip(chi, loops, strict=True)],
+        "closed_manifold": mesh.is_closed_manifold(),
+        "manifold_with_boundary": mesh.is_manifold_with_boundary(),
+    }
+
+
+def _check_format(path: str | os.PathLike) -> None:
+    """ValueError unless :meth:`SurfaceMesh.save` writes the path's format."""
+    path = os.fspath(path)
+    ext = os.path.splitext(path)[1].lower().lstrip(".")
+    if ext not in MESH_FORMATS:
+        raise ValueError(
+            f"cannot write {path!r}: unknown mesh format {ext!r}; use one of "
+            f"{', '.join(MESH_FORMATS)}"
+        )
+
+
+def _summary(mesh: SurfaceMesh) -> str:
+    """:meth:`SurfaceMesh.summary`."""
+    topo = mesh.topology()
+    genus = ", ".join(f"{g:g}" for g in topo["genus"])
+    lines = [
+        f"vertices {len(mesh.vertices)}, faces {len(mesh.faces)}",
+        f"min angle {mesh.min_angle:.2f} deg",
+        f"components {topo['components']} (genus {genus}), "
+        f"closed manifold: {'yes' if topo['closed_manifold'] else 'no'}"
+        + (
+            f", boundary loops {sum(topo['boundary_loops'])}"
+            if topo["manifold_with_boundary"]
+            else ""
+        ),
+        f"time {mesh.stats.get('seconds', float('nan')):.2f} s, "
+        f"{mesh.stats.get('rounds', 0)} rounds, "
+        f"{mesh.stats.get('evaluations', 0)} evaluations of f",
+    ]
+    if mesh.features is not None:
+        f = mesh.features
+        lines.append(
+            f"features: {len(f.curves)} curves, {len(f.corners)} corners kept"
+            if f.held
+            else f"features: {len(f.curves)} curves, {len(f.corners)} corners; NOT all kept "
+            f"({f.edges_kept} of {f.edges} curve edges, {f.corners_kept} corners)"
+        )
+    if not mesh.complete:
+        lines.append("INCOMPLETE: " + str(mesh.stats.get("stop_reason", "budget")))
+    if len(mesh.unresolved):
+        lines.append(f"unresolved refinement points: {len(mesh.unresolved)}")
+    if mesh.report:
+        failed = [k for k, t in mesh.report["tests"].items() if t["held"] is False]
+        if mesh.report.get("boundary") is not None:
+            box = mesh.report["boundary"].get("domain") == "box"
+            where = "its clip box" if box else "the bounding sphere"
+            held = f"not applicable (the surface leaves {where}), NOT certified"
+            failed = []
+        elif mesh.report.get("certified"):
+            held = "certified"
+        elif mesh.report["tbp_holds"]:
+            held = "held on samples, NOT certified"
+        else:
+            held = "NOT certified"
+        lines.append(
+            "topological ball property: "
+            + held
+            + (f" (failed: {', '.join(failed)})" if failed else "")
+        )
+    return "\n".join(lines)

@@ -8,6 +8,5 @@
 - :mod:`~rdmesh.refine.floor`: the spacing floor;
 - :mod:`~rdmesh.refine.mesher`: the loop.
 
-Submodules are imported where used, so that the result type can use the
-criteria's geometry without a cycle.
+Submodules are imported where used.
 """

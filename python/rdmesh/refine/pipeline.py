@@ -10,6 +10,9 @@ jobs in order, as the core requires.
 A failure or a Ctrl-C in the middle of a round waits until the worker has run
 its queued jobs, even through further Ctrl-Cs, so that nothing touches the
 core from two threads and the round can be restarted.
+
+With ``workers > 1`` the slices of a chunk are evaluated on a pool of that
+many threads, started with the pipeline and stopped by :meth:`close`.
 """
 
 from __future__ import annotations
@@ -78,6 +81,10 @@ class FacetPipeline:
         #: Dual segments whose root search failed (never used as surface points).
         self.failed = 0
         self._worker = ThreadPoolExecutor(1, thread_name_prefix="rdmesh-core")
+        #: Evaluates the slices of a chunk at once (workers > 1).
+        self._pool = (
+            ThreadPoolExecutor(workers, thread_name_prefix="rdmesh-eval") if workers > 1 else None
+        )
 
     def update(self, vertices: np.ndarray, weights: np.ndarray | None = None) -> None:
         """Evaluate every facet whose dual changed since the last update.
@@ -94,9 +101,11 @@ class FacetPipeline:
             raise
 
     def close(self) -> None:
-        """Settle the core's jobs and stop the worker thread."""
+        """Settle the core's jobs and stop the worker thread and the pool."""
         self._settle()
         self._worker.shutdown(wait=False)
+        if self._pool is not None:
+            self._pool.shutdown(wait=False)
 
     def _settle(self) -> None:
         """Wait until the worker has run every queued core job, through Ctrl-C.
@@ -156,51 +165,53 @@ class FacetPipeline:
         flags = np.zeros(k, np.uint8)
         centres = np.zeros((k, 3))
 
-        failed = []
-
-        def work(sl: slice) -> None:
-            t = tri[sl]
-            w = self._weights
-            ev = evaluate_facets(
-                self.surface, vertices[t[:, 0]], seg[sl], rho[sl], end_f[sl], samples.take(sl),
-                None if w is None else w[t[:, 0]],
-            )  # fmt: skip
-            failed.append(ev.failed)
-            r = ev.restricted
-            bad = np.zeros(len(t), bool)
-            corners = vertices[t[r]]
-            exempt = None
-            if self.clipped and not self.protected:
-                # Facets with an edge on the boundary curve (two vertices on
-                # the clipping surface, the sphere or the clip box) are held
-                # to the angle bound down to a floor of ball radius.
-                exempt = at_boundary(self.surface, corners)
-                if exempt.any():
-                    psi = self.boundary_sizing(ev.centre[r][exempt])
-                    exempt[exempt] = ev.radius[r][exempt] <= BOUNDARY_ANGLE_FLOOR * psi
-            bad[r] = self.criteria.bad(
-                corners, ev.centre[r], ev.radius[r], exempt, None if w is None else w[t[r]]
+        def work(sl: slice) -> int:
+            flags[sl], centres[sl], failed = _slice_flags(
+                self, vertices, tri[sl], seg[sl], rho[sl], end_f[sl], samples.take(sl)
             )
-            topo = r & ((ev.n_cross >= 2) | ev.tangential)
-            flags[sl] = (
-                (r * core.RESTRICTED)
-                | (bad * core.BAD)
-                | (topo * core.TOPO)
-                | ((r & ev.outward) * core.OUTWARD)
-                | (ev.clean * core.KNOWN)
-            )
-            centres[sl] = ev.centre
+            return failed
 
-        step = CHUNK if self.workers == 1 else -(-k // self.workers)
+        step = CHUNK if self._pool is None else -(-k // self.workers)
         slices = [slice(i, min(i + step, k)) for i in range(0, k, step)]
-        if self.workers > 1 and len(slices) > 1:
-            with ThreadPoolExecutor(self.workers) as pool:
-                list(pool.map(work, slices))
+        if self._pool is not None and len(slices) > 1:
+            self.failed += sum(self._pool.map(work, slices))
         else:
-            for sl in slices:
-                work(sl)
-        self.failed += sum(failed)
+            self.failed += sum(work(sl) for sl in slices)
         return flags, centres
+
+
+def _slice_flags(p: FacetPipeline, vertices, tri, seg, rho, end_f, samples: DualSamples):
+    """The flags and surface centres of a slice of a chunk, and how many of its
+    root searches failed."""
+    w = p._weights
+    ev = evaluate_facets(
+        p.surface, vertices[tri[:, 0]], seg, rho, end_f, samples,
+        None if w is None else w[tri[:, 0]],
+    )  # fmt: skip
+    r = ev.restricted
+    bad = np.zeros(len(tri), bool)
+    corners = vertices[tri[r]]
+    exempt = None
+    if p.clipped and not p.protected:
+        # Facets with an edge on the boundary curve (two vertices on the
+        # clipping surface, the sphere or the clip box) are held to the angle
+        # bound down to a floor of ball radius.
+        exempt = at_boundary(p.surface, corners)
+        if exempt.any():
+            psi = p.boundary_sizing(ev.centre[r][exempt])
+            exempt[exempt] = ev.radius[r][exempt] <= BOUNDARY_ANGLE_FLOOR * psi
+    bad[r] = p.criteria.bad(
+        corners, ev.centre[r], ev.radius[r], exempt, None if w is None else w[tri[r]]
+    )
+    topo = r & ((ev.n_cross >= 2) | ev.tangential)
+    flags = (
+        (r * core.RESTRICTED)
+        | (bad * core.BAD)
+        | (topo * core.TOPO)
+        | ((r & ev.outward) * core.OUTWARD)
+        | (ev.clean * core.KNOWN)
+    )
+    return flags, ev.centre, ev.failed
 
 
 def _nothing() -> None:

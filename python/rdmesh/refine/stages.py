@@ -14,7 +14,7 @@ of the first one that has any above the floor.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -56,11 +56,12 @@ class Candidates:
         return len(self.centres)
 
     def take(self, keep: np.ndarray) -> Candidates:
-        """The candidates where ``keep`` is True."""
+        """The candidates where ``keep`` is True (``stage``, ``violations`` and
+        ``stuck`` are not per point: they stay)."""
         topo = np.broadcast_to(self.topological, len(self.centres))[keep]
         soft = None if self.soft is None else self.soft[keep]
-        return Candidates(
-            self.stage, self.centres[keep], self.radii[keep], topo, self.violations, soft=soft
+        return replace(
+            self, centres=self.centres[keep], radii=self.radii[keep], topological=topo, soft=soft
         )
 
 

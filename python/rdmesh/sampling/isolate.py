@@ -12,10 +12,8 @@ dotted with ``b - a``. A piece is settled when
 
 Other pieces are halved, down to a floor length; a piece still unsettled there
 (a near-tangency, a singular point, a root at an end) is *unresolved*: the
-count of its segment is not proven. All segments and pieces of one level go
-through one vectorised interval evaluation; with the core's evaluator the
-whole bisection runs in the core (``core.isolate_segment_roots``), segment
-by segment over the cores, with the same pieces.
+count of its segment is not proven. The whole bisection runs in the core
+(``core.isolate_segment_roots``), segment by segment over the cores.
 """
 
 from __future__ import annotations
@@ -26,12 +24,10 @@ import numpy as np
 
 from ..core import isolate_segment_roots
 from ..surfaces.expressions import Expression
-from ..surfaces.intervals import dot_bounds, native_program
+from ..surfaces.intervals import program_of
 
-#: Pieces kept at one level at most (bounds the memory of a call; numpy path).
-MAX_PIECES = 1 << 21
-#: Pieces bounded per segment at most (the core's path); a segment that needs
-#: more keeps its unsettled pieces pending.
+#: Pieces bounded per segment at most; a segment that needs more keeps its
+#: unsettled pieces pending.
 BUDGET = 1 << 16
 
 
@@ -103,66 +99,11 @@ def isolate_roots(
     else:
         seg, t0, t1 = (np.asarray(x) for x in pieces)
         pa, pb = a[seg], b[seg]
-    program = native_program(expr)
-    if program is None:
-        if t0 is None:
-            t0, t1 = np.zeros(n), np.ones(n)
-        fs, flo, fhi, ps, plo, phi, boxes = _isolate_numpy(expr, pa, pb, t0, t1, min_length)
-    else:
-        fs, flo, fhi, ps, plo, phi, boxes = isolate_segment_roots(
-            *program, pa, pb, min_length, BUDGET, t0, t1
-        )
-        expr.count_boxes(boxes)
+    fs, flo, fhi, ps, plo, phi, boxes = isolate_segment_roots(
+        *program_of(expr), pa, pb, min_length, BUDGET, t0, t1
+    )
+    expr.count_boxes(boxes)
     return _isolation(n, seg[fs], flo, fhi, seg[ps], plo, phi, boxes)
-
-
-def _isolate_numpy(expr: Expression, a, b, t0, t1, min_length: float):
-    """What the core's ``isolate_segment_roots`` does, level by level in numpy,
-    for expressions the core cannot bound (and to check the core against)."""
-    n = len(a)
-    d = b - a
-    length = np.sqrt(np.einsum("ij,ij->i", d, d))
-    seg = np.arange(n)
-    t0, t1 = np.array(t0, np.float64), np.array(t1, np.float64)
-    found: list[tuple[np.ndarray, ...]] = []
-    pending: list[tuple[np.ndarray, ...]] = []
-    boxes = 0
-    while len(seg):
-        p0 = a[seg] + t0[:, None] * d[seg]
-        p1 = a[seg] + t1[:, None] * d[seg]
-        enc = expr.interval_gradient(np.minimum(p0, p1), np.maximum(p0, p1), mean_value=True)
-        boxes += len(seg)
-        has0 = (enc.lo <= 0) & (enc.hi >= 0)
-        dlo, dhi = dot_bounds(enc.glo, enc.ghi, d[seg])
-        mono = has0 & ~enc.undefined & ((dlo > 0) | (dhi < 0))
-        # The ends of monotone pieces: their signs decide.
-        ends = np.concatenate([p0[mono], p1[mono]])
-        e = expr.interval(ends, ends)
-        boxes += len(ends)
-        k = int(mono.sum())
-        s0 = _sign(e.lo[:k], e.hi[:k], e.undefined[:k])
-        s1 = _sign(e.lo[k:], e.hi[k:], e.undefined[k:])
-        settled = (s0 != 0) & (s1 != 0)
-        idx = np.flatnonzero(mono)
-        root = idx[settled & (s0 != s1)]
-        found.append((seg[root], t0[root], t1[root]))
-        open_ = has0.copy()
-        open_[idx[settled]] = False
-        # Halve the rest, unless too short (or too many).
-        short = (t1 - t0) * length[seg] <= min_length
-        stop = open_ & short
-        pending.append((seg[stop], t0[stop], t1[stop]))
-        go = np.flatnonzero(open_ & ~short)
-        if 2 * len(go) > MAX_PIECES:
-            pending.append((seg[go], t0[go], t1[go]))
-            break
-        mid = 0.5 * (t0[go] + t1[go])
-        seg = np.repeat(seg[go], 2)
-        t0 = np.column_stack([t0[go], mid]).ravel()
-        t1 = np.column_stack([mid, t1[go]]).ravel()
-    fs, flo, fhi = (np.concatenate(c) for c in zip(*found, strict=True)) if found else _none(3)
-    ps, plo, phi = (np.concatenate(c) for c in zip(*pending, strict=True)) if pending else _none(3)
-    return fs, flo, fhi, ps, plo, phi, boxes
 
 
 def _isolation(n, fs, flo, fhi, ps, plo, phi, boxes) -> Isolation:
@@ -175,13 +116,3 @@ def _isolation(n, fs, flo, fhi, ps, plo, phi, boxes) -> Isolation:
     return Isolation(
         fs[order], flo[order], fhi[order], count, resolved, ps[wait], plo[wait], phi[wait], boxes
     )
-
-
-def _sign(lo: np.ndarray, hi: np.ndarray, undefined: np.ndarray) -> np.ndarray:
-    """+1 / -1 where the enclosure proves the sign, 0 where it does not."""
-    s = np.where(lo > 0, 1, np.where(hi < 0, -1, 0))
-    return np.where(undefined, 0, s)
-
-
-def _none(k: int) -> tuple[np.ndarray, ...]:
-    return (np.zeros(0, np.int64),) + tuple(np.zeros(0) for _ in range(k - 1))

@@ -1,28 +1,23 @@
 """Expression trees as straight-line programs for the core's interval evaluator.
 
-:func:`compile_program` turns an expression into one instruction per node
-(``(op, a, b)`` rows and a constant per row; the result of row ``i`` is
-register ``i``), which ``rdmesh.core.evaluate_intervals`` runs box after box
-in C++ as interval dual numbers, by the rules of
-:mod:`rdmesh.surfaces.intervals`. Expressions with a function the core has no
-rule for (``tan``, ``atan2``, a variable exponent, ...) get ``None`` and stay
-on the numpy evaluator.
+:func:`compile_program` turns an expression tree (:mod:`~rdmesh.surfaces.ir`)
+into one instruction per operation (``(op, a, b)`` rows and a constant per
+row; the result of row ``i`` is register ``i``), which
+``rdmesh.core.evaluate_intervals`` runs box after box in C++ as interval dual
+numbers (:mod:`rdmesh.surfaces.intervals` states what the bounds guarantee).
+The opcodes are the core's own (``rdmesh.core.INTERVAL_OPS``, by name: the
+arithmetic operations and every function of the grammar).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .expressions import _Const, _Nary, _Neg, _Node, _Pow, _Product, _Sum, _Unary, _Var
+from ..core import INTERVAL_OPS
+from .ir import Const, Nary, Neg, Node, Pow, Product, Sum, Unary, Var, is_constant
+from .pointwise import value
 
-# Opcodes of cpp/interval_eval.hpp.
-CONST, VAR, NEG, ADD, SUB, MUL, DIV, POWC = range(8)
-_UNARY_OPS = {"sqrt": 8, "exp": 9, "log": 10, "abs": 11, "sin": 14, "cos": 15}
-_NARY_OPS = {"min": 12, "max": 13}
-
-
-class _Unsupported(Exception):
-    pass
+_OP = INTERVAL_OPS
 
 
 class _Assembler:
@@ -30,64 +25,63 @@ class _Assembler:
         self.rows: list[tuple[int, int, int]] = []
         self.consts: list[float] = []
 
-    def emit(self, op: int, a: int = -1, b: int = -1, c: float = 0.0) -> int:
-        self.rows.append((op, a, b))
+    def emit(self, op: str, a: int = -1, b: int = -1, c: float = 0.0) -> int:
+        self.rows.append((_OP[op], a, b))
         self.consts.append(c)
         return len(self.rows) - 1
 
-    def node(self, node: _Node) -> int:
-        if isinstance(node, _Const):
-            return self.emit(CONST, c=float(node.c))
-        if isinstance(node, _Var):
-            return self.emit(VAR, node.i)
-        if isinstance(node, _Neg):
-            return self.emit(NEG, self.node(node.a))
-        if isinstance(node, _Sum):
+    def chain(self, op: str, args: list[Node]) -> int:
+        """``op(op(a0, a1), a2) ...``: min, max and hypot of several arguments."""
+        out = self.node(args[0])
+        for arg in args[1:]:
+            out = self.emit(op, out, self.node(arg))
+        return out
+
+    def node(self, node: Node) -> int:
+        if isinstance(node, Const):
+            return self.emit("const", c=float(node.c))
+        if isinstance(node, Var):
+            return self.emit("var", node.i)
+        if isinstance(node, Neg):
+            return self.emit("neg", self.node(node.a))
+        if isinstance(node, Sum):
             out = None
             for term, minus in node.terms:
                 r = self.node(term)
                 if out is None:
-                    out = self.emit(NEG, r) if minus else r
+                    out = self.emit("neg", r) if minus else r
                 else:
-                    out = self.emit(SUB if minus else ADD, out, r)
+                    out = self.emit("sub" if minus else "add", out, r)
             return out
-        if isinstance(node, _Product):
+        if isinstance(node, Product):
             out = self.node(node.factors[0][0])
             for factor, divide in node.factors[1:]:
-                out = self.emit(DIV if divide else MUL, out, self.node(factor))
+                out = self.emit("div" if divide else "mul", out, self.node(factor))
             return out
-        if isinstance(node, _Pow):
+        if isinstance(node, Pow):
             return self.power(node.a, node.b)
-        if isinstance(node, _Unary) and node.name in _UNARY_OPS:
-            return self.emit(_UNARY_OPS[node.name], self.node(node.a))
-        if isinstance(node, _Nary):
+        if isinstance(node, Unary):
+            return self.emit(node.name, self.node(node.a))
+        if isinstance(node, Nary):
             if node.name == "pow":
                 return self.power(node.args[0], node.args[1])
-            if node.name in _NARY_OPS:
-                out = self.node(node.args[0])
-                for arg in node.args[1:]:
-                    out = self.emit(_NARY_OPS[node.name], out, self.node(arg))
-                return out
-        raise _Unsupported
+            if node.name == "atan2":
+                return self.emit("atan2", self.node(node.args[0]), self.node(node.args[1]))
+            return self.chain(node.name, node.args)
+        raise TypeError(f"not an expression node: {type(node).__name__}")
 
-    def power(self, base: _Node, exponent: _Node) -> int:
-        from .intervals import _is_constant
-
+    def power(self, base: Node, exponent: Node) -> int:
         a = self.node(base)
-        if not _is_constant(exponent):
-            raise _Unsupported
-        # The exponent as point evaluation computes it (intervals' convention).
+        if not is_constant(exponent):
+            return self.emit("pow", a, self.node(exponent))
+        # A constant exponent as point evaluation computes it.
         with np.errstate(all="ignore"):
-            c = float(exponent.value(None))
-        return self.emit(POWC, a, c=c)
+            c = float(value(exponent, None))
+        return self.emit("powc", a, c=c)
 
 
-def compile_program(root: _Node) -> tuple[np.ndarray, np.ndarray] | None:
-    """The program of an expression tree: ``(ops (t, 3) int32, consts (t,) float64)``,
-    or ``None`` when it uses a function the core's evaluator has no rule for."""
+def compile_program(root: Node) -> tuple[np.ndarray, np.ndarray]:
+    """The program of an expression tree: ``(ops (t, 3) int32, consts (t,) float64)``."""
     asm = _Assembler()
-    try:
-        asm.node(root)
-    except _Unsupported:
-        return None
+    asm.node(root)
     return np.array(asm.rows, dtype=np.int32), np.array(asm.consts, dtype=np.float64)

@@ -89,6 +89,30 @@ def complex_status(faces: np.ndarray, n_vertices: int) -> ComplexStatus:
     return ComplexStatus(edge_key, counts, facet_edges, fans)
 
 
+def is_closed_manifold(faces: np.ndarray, n_vertices: int) -> bool:
+    """Every edge in two faces and every used vertex with one fan of faces
+    (False without faces)."""
+    if len(faces) == 0:
+        return False
+    st = complex_status(faces, n_vertices)
+    used = np.unique(faces)
+    return bool(np.all(st.edge_count == 2) and np.all(st.vertex_fans[used] == 1))
+
+
+def is_manifold_with_boundary(faces: np.ndarray, n_vertices: int) -> bool:
+    """Every edge in one or two faces, some in one (a boundary), and every
+    used vertex with one fan of faces (False without faces)."""
+    if len(faces) == 0:
+        return False
+    st = complex_status(faces, n_vertices)
+    used = np.unique(faces)
+    return bool(
+        np.all(st.edge_count <= 2)
+        and np.any(st.edge_count == 1)
+        and np.all(st.vertex_fans[used] == 1)
+    )
+
+
 def largest_incident(group: np.ndarray, facet: np.ndarray, radius: np.ndarray) -> np.ndarray:
     """For each distinct value of ``group``, the ``facet`` with the largest radius.
 

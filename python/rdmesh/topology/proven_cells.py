@@ -47,16 +47,14 @@ import numpy as np
 from .._newton import damped_step
 from .._tol import ON_SURFACE, PROOF_BOX_FLOOR, PROOF_BOX_RELATIVE, TINY
 from .._vectors import row_norms
-from ..core import boxes_outside_cells, prove_boxes
+from ..core import prove_boxes
 from ..surfaces.expressions import Expression
-from ..surfaces.intervals import dot_bounds, native_program
+from ..surfaces.intervals import program_of
 from ..surfaces.oracle import ImplicitSurface
 from .tests import Violations
 
-#: Boxes kept at one level at most, over all facets or cells (numpy path).
-MAX_BOXES = 1 << 21
-#: Boxes bounded per facet or cell at most (the core's path); an owner that
-#: needs more is a violation.
+#: Boxes bounded per facet or cell at most; an owner that needs more is a
+#: violation.
 BUDGET = 1 << 16
 #: Newton steps that move an unsettled box's centre onto the surface.
 NEWTON_STEPS = 12
@@ -279,32 +277,6 @@ def _floor(surface: ImplicitSurface, lo, hi) -> np.ndarray:
     )
 
 
-def _seed_boxes(seeds: CellProof, cell, lo, hi):
-    """Each owner's first boxes, as (owner, lo, hi): the leaves of its cell cut
-    to its box where the cell is seeded, its box elsewhere (what the core's
-    ``prove_boxes`` does with seeds)."""
-    seeded = seeds.seeded[cell]
-    owner, rows = seeds.leaves_of(cell)
-    blo = np.maximum(seeds.lo[rows], lo[owner])
-    bhi = np.minimum(seeds.hi[rows], hi[owner])
-    keep = np.all(blo <= bhi, axis=1)
-    own = np.flatnonzero(~seeded)
-    return (
-        np.concatenate([owner[keep], own]),
-        np.concatenate([blo[keep], lo[own]]),
-        np.concatenate([bhi[keep], hi[own]]),
-    )
-
-
-def _meets_plane(lo, hi, plane) -> np.ndarray:
-    """Boxes that may touch the planes (normal, offset), with a margin for
-    rounding: a box that touches its plane is never dropped."""
-    a, b = _span(lo, hi, plane[:, :3])
-    c = plane[:, 3]
-    slack = 1e-12 * (np.abs(a) + np.abs(b) + np.abs(c)) + 1e-300
-    return (a <= c + slack) & (b >= c - slack)
-
-
 def _prove(
     kind, surface, vertices, tree, geometry, lo, hi, owner, cell, direction, floor,
     skip=None, plane=None, leaves=False, seeds: CellProof | None = None,
@@ -327,21 +299,9 @@ def _prove(
     expr = surface.f
     if not isinstance(expr, Expression):
         raise TypeError(f"{kind} needs an expression surface")
-    program = native_program(expr)
-    if program is None:
-        start = (np.arange(len(lo)), lo, hi) if seeds is None else _seed_boxes(seeds, cell, lo, hi)
-        failed, blo, bhi, kept = _prove_numpy(
-            expr, vertices, geometry, *start, len(lo), cell, direction, skip, plane, floor
-        )
-    else:
-        seed = None if seeds is None else (seeds.seeded, seeds.first, seeds.lo, seeds.hi)
-        failed, blo, bhi, boxes, *kept = prove_boxes(
-            *program, lo, hi, cell, direction, floor, vertices,
-            geometry.offsets, geometry.neighbour, skip, plane, BUDGET, leaves, seed,
-        )  # fmt: skip
-        expr.count_boxes(int(boxes.sum()))
-        failed = np.flatnonzero(failed)
-        blo, bhi = blo[failed], bhi[failed]
+    failed, blo, bhi, kept = _subdivide(
+        expr, vertices, geometry, lo, hi, cell, direction, floor, skip, plane, leaves, seeds
+    )
     if not len(failed):
         out = _Proof(kind, 0, np.zeros((0, 3)), np.zeros(0), owners=np.zeros(0, np.int64))
     else:
@@ -352,72 +312,20 @@ def _prove(
     return (out, tuple(kept)) if leaves else out
 
 
-def _prove_numpy(expr, vertices, geometry, owner, lo, hi, n, cell, direction, skip, plane, floor):
-    """What the core's ``prove_boxes`` does, level by level in numpy, for
-    expressions the core cannot bound, from the boxes ``lo, hi`` of the ``n``
-    owners ``owner``: (failed owners, their first unsettled boxes, and each
-    owner's settled boxes as (first, lo, hi))."""
-    done = np.zeros(n, bool)
-    bad_lo, bad_hi, bad_owner = [], [], []
-    leaf_lo, leaf_hi, leaf_owner = [], [], []
-    while len(lo):
-        # One unsettled box makes an owner a violation: drop the rest of it.
-        keep = ~done[owner]
-        if plane is not None:
-            keep &= _meets_plane(lo, hi, plane[owner])
-        lo, hi, owner = lo[keep], hi[keep], owner[keep]
-        keep = ~_outside_cell(
-            lo, hi, cell[owner], vertices, geometry, None if skip is None else skip[owner]
-        )
-        lo, hi, owner = lo[keep], hi[keep], owner[keep]
-        if not len(lo):
-            break
-        enc = expr.interval_gradient(lo, hi, mean_value=True)
-        dlo, dhi = dot_bounds(enc.glo, enc.ghi, direction[owner])
-        settled = ~enc.undefined & ((dlo > 0) | (dhi < 0))
-        leaf_lo.append(lo[settled])
-        leaf_hi.append(hi[settled])
-        leaf_owner.append(owner[settled])
-        open_ = (enc.lo <= 0) & (enc.hi >= 0) & ~settled
-        lo, hi, owner = lo[open_], hi[open_], owner[open_]
-        side = hi - lo
-        small = side.max(axis=1) <= floor[owner]
-        if small.any() or 2 * len(lo) > MAX_BOXES:
-            stop = small if 2 * len(lo) <= MAX_BOXES else np.ones(len(lo), bool)
-            bad_lo.append(lo[stop])
-            bad_hi.append(hi[stop])
-            bad_owner.append(owner[stop])
-            done[owner[stop]] = True
-            stop |= done[owner]
-            lo, hi, owner = lo[~stop], hi[~stop], owner[~stop]
-            side = side[~stop]
-        # Halve along the longest side.
-        axis = np.argmax(side, axis=1)
-        rows = np.arange(len(lo))
-        cut = lo[rows, axis] + 0.5 * side[rows, axis]
-        hi1 = hi.copy()
-        hi1[rows, axis] = cut
-        lo2 = lo.copy()
-        lo2[rows, axis] = cut
-        lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi1, hi])
-        owner = np.concatenate([owner, owner])
-    # Settled boxes by owner, none for a violation.
-    klo = np.concatenate([np.zeros((0, 3)), *leaf_lo])
-    khi = np.concatenate([np.zeros((0, 3)), *leaf_hi])
-    kown = np.concatenate([np.zeros(0, np.int64), *leaf_owner])
-    keep = ~done[kown]
-    order = np.argsort(kown[keep], kind="stable")
-    kept = (
-        np.r_[0, np.cumsum(np.bincount(kown[keep], minlength=n))],
-        klo[keep][order],
-        khi[keep][order],
-    )
-    if not bad_lo:
-        return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3)), kept
-    blo, bhi, bown = (np.concatenate(x) for x in (bad_lo, bad_hi, bad_owner))
-    # One violation per owner: its first unsettled box.
-    failed, at = np.unique(bown, return_index=True)
-    return failed, blo[at], bhi[at], kept
+def _subdivide(
+    expr, vertices, geometry, lo, hi, cell, direction, floor, skip, plane, leaves, seeds
+):
+    """The core's subdivision (``prove_boxes``) of each owner's box: (failed
+    owners, their first unsettled boxes lo and hi, and with ``leaves`` each
+    owner's settled boxes as (first, lo, hi), else ())."""
+    seed = None if seeds is None else (seeds.seeded, seeds.first, seeds.lo, seeds.hi)
+    failed, blo, bhi, boxes, *kept = prove_boxes(
+        *program_of(expr), lo, hi, cell, direction, floor, vertices,
+        geometry.offsets, geometry.neighbour, skip, plane, BUDGET, leaves, seed,
+    )  # fmt: skip
+    expr.count_boxes(int(boxes.sum()))
+    failed = np.flatnonzero(failed)
+    return failed, blo[failed], bhi[failed], tuple(kept)
 
 
 @dataclass
@@ -484,21 +392,3 @@ def _onto_surface(
     ok = (np.abs(surface(x)) <= ON_SURFACE * R * gn) & (gn > 0)
     ok &= row_norms(x - surface.centre) < R
     return x, ok
-
-
-def _span(lo, hi, w) -> tuple[np.ndarray, np.ndarray]:
-    """Least and greatest ``x . w`` over the boxes."""
-    a = np.where(w > 0, lo, hi)
-    b = np.where(w > 0, hi, lo)
-    return np.einsum("ij,ij->i", a, w), np.einsum("ij,ij->i", b, w)
-
-
-def _outside_cell(lo, hi, p_ids, vertices, geometry: CellGeometry, skip=None) -> np.ndarray:
-    """Boxes wholly beyond the bisector of ``p`` and one of its neighbours
-    (other than ``skip``): outside the Voronoi cell of ``p`` (in the core, with
-    a relative margin so that rounding never drops a box that touches the cell)."""
-    owner = np.broadcast_to(np.asarray(p_ids, dtype=np.int64), (len(lo),))
-    if skip is not None:
-        skip = np.broadcast_to(np.asarray(skip, dtype=np.int64), (len(lo),))
-    out = boxes_outside_cells(lo, hi, owner, vertices, geometry.offsets, geometry.neighbour, skip)
-    return out.view(bool)

@@ -4,6 +4,46 @@ Each test has a ``basis``: ``exact`` (combinatorial, on the restricted
 complex), ``exact given voronoi_edge``, or ``sampled`` (resting on samples of
 the surface: a missed feature is possible). The ``statement`` separates what
 holds exactly from what rests on sampling.
+
+The report (:attr:`rdmesh.SurfaceMesh.report`) has the same fields for every
+method:
+
+``tbp_holds``
+    True when every topological-ball test held (some only on samples),
+    nothing was left unresolved and the run completed.
+``certified``
+    True only when, besides, every test is proven
+    (:attr:`rdmesh.SurfaceMesh.topology_certified`).
+``tests``
+    Per test (``voronoi_edge``, ``voronoi_facet``, ``voronoi_loop``,
+    ``disk``, ``isolated``, ``silhouette``): ``held``, ``level``
+    (``proven``, ``sampled``, ``failed`` or ``not tested``), ``violations`` at
+    the end, ``repaired`` (points inserted to repair it), ``basis`` ("exact",
+    "sampled", ...) and what it checks. With ``certify``,
+    ``voronoi_edge`` also has ``proof``: the interval check of every
+    Voronoi edge's crossings.
+``seeding``
+    How the components were found: ``level`` ``proven`` (interval
+    subdivision, certify mode: a seed on every component) or
+    ``sampled`` (grid scan), with the boxes' figures.
+``components``, ``euler``, ``boundary_loops``, ``closed_manifold``
+    Of the output mesh.
+``boundary``
+    A surface that leaves the bounding sphere or its clip box
+    (``topology="manifold-with-boundary"``): ``domain`` ("sphere" or
+    "box"), ``curve_loops`` traced on it, ``edge_crossings`` (box:
+    where the curve crosses a box edge, each a sample),
+    ``mesh_loops``, ``loops_match``, ``genus`` per component from
+    chi = 2 - 2g - b and ``euler_consistent`` (a whole genus, at
+    least 0); None otherwise.
+``unresolved_regions``, ``violation_regions``
+    Where points were refused by the spacing floor, or tests still fail:
+    ``centre``, ``radius`` and ``points`` of each cluster.
+``critical_points``
+    Topological-ball method: the height-function critical points used
+    as seeds and whether their Morse count matches the mesh.
+``statement``
+    What is certified and what rests on sampling, in words.
 """
 
 from __future__ import annotations

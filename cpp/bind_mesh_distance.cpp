@@ -1,0 +1,80 @@
+// Bindings of MeshDistance (mesh_distance.hpp), behind rdmesh.MeshSurface.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "mesh_distance.hpp"
+
+namespace rdmesh::bind {
+
+void register_mesh_distance(py::module_& m) {
+  py::class_<MeshDistance>(m, "MeshDistance")
+      .def(py::init([](const InArray& vertices, const IdArray& faces, bool side) {
+             const std::vector<double> v = rows3(vertices, "vertices");
+             if (faces.ndim() != 2 || faces.shape(1) != 3)
+               throw std::invalid_argument("faces must have shape (m, 3)");
+             const std::vector<std::int64_t> f = copy_of<std::int64_t>(faces);
+             py::gil_scoped_release release;
+             return new MeshDistance(v.data(), v.size() / 3, f.data(), f.size() / 3, side);
+           }),
+           py::arg("vertices"), py::arg("faces"), py::arg("side") = true)
+      .def(
+          "query",
+          [](const MeshDistance& self, const InArray& points) {
+            const std::vector<double> p = rows3(points, "points");
+            const std::size_t k = p.size() / 3;
+            std::vector<double> dist(k), closest(3 * k);
+            std::vector<std::int64_t> face(k);
+            std::vector<std::int8_t> side(k);
+            {
+              py::gil_scoped_release release;
+              self.query(p.data(), k, dist.data(), closest.data(), face.data(), side.data());
+            }
+            const auto n = static_cast<py::ssize_t>(k);
+            return py::make_tuple(to_numpy(dist, {n}), to_numpy(closest, {n, 3}),
+                                  to_numpy(face, {n}), to_numpy(side, {n}));
+          },
+          py::arg("points"),
+          "((k,) distances, (k, 3) closest points, (k,) their faces, (k,) int8 "
+          "sides: +1 outside, -1 inside, 0 on the surface or without a side oracle).")
+      .def(
+          "side",
+          [](const MeshDistance& self, const InArray& points) {
+            if (!self.has_side())
+              throw std::invalid_argument(std::string("this mesh has no side oracle: ") +
+                                          self.side_failure());
+            const std::vector<double> p = rows3(points, "points");
+            std::vector<std::int8_t> side(p.size() / 3);
+            {
+              py::gil_scoped_release release;
+              self.side(p.data(), side.size(), side.data());
+            }
+            return to_numpy(side, {static_cast<py::ssize_t>(side.size())});
+          },
+          py::arg("points"),
+          "(k,) int8 sides from Side_of_triangle_mesh: +1 outside, -1 inside, 0 on "
+          "the surface. ValueError without a side oracle (has_side False).")
+      .def(
+          "winding_number",
+          [](const MeshDistance& self, const InArray& points, double beta) {
+            const std::vector<double> p = rows3(points, "points");
+            std::vector<double> w(p.size() / 3);
+            {
+              py::gil_scoped_release release;
+              self.winding_number(p.data(), w.size(), w.data(), beta);
+            }
+            return to_numpy(w, {static_cast<py::ssize_t>(w.size())});
+          },
+          py::arg("points"), py::arg("beta") = 2.5,
+          "(k,) generalized winding numbers; clusters farther than beta radii "
+          "are approximated by their dipole.")
+      .def_property_readonly("has_side", &MeshDistance::has_side)
+      .def_property_readonly("side_failure", &MeshDistance::side_failure)
+      .def_property_readonly("number_of_faces", &MeshDistance::number_of_faces);
+}
+
+}  // namespace rdmesh::bind
