@@ -16,7 +16,10 @@ import rdmesh
 
 corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
 edges = [
-    np.array([a, b]) for i, a in enumerate(corners) for b in corners[i + 1 :] if np.sum(a != b) == 1
+    np.array([a, b])
+    for i, a in enumerate(corners)
+    for b in corners[i + 1 :]
+    if np.sum(a != b) == 1
 ]
 
 
@@ -40,8 +43,10 @@ kept = rdmesh.mesh_surface(
 )
 for name, m in (("no features", plain), ("edges given", kept)):
     worst = np.abs(box(m.vertices[m.faces].mean(axis=1))).max()
-    print(f"{name}: {len(m.vertices)} vertices, min angle {m.min_angle:.1f} deg, "
-          f"largest |f| at a triangle's centroid {worst:.1e}")
+    print(
+        f"{name}: {len(m.vertices)} vertices, min angle {m.min_angle:.1f} deg, "
+        f"largest |f| at a triangle's centroid {worst:.1e}"
+    )
 print(kept.summary())
 
 plain.render("creases_box_plain.png", title="no features: chamfered edges")

@@ -21,7 +21,10 @@ import rdmesh  # noqa: E402
 
 CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
 EDGES = [
-    np.array([a, b]) for i, a in enumerate(CORNERS) for b in CORNERS[i + 1 :] if np.sum(a != b) == 1
+    np.array([a, b])
+    for i, a in enumerate(CORNERS)
+    for b in CORNERS[i + 1 :]
+    if np.sum(a != b) == 1
 ]
 
 

@@ -181,7 +181,9 @@ def test_bad_feature_curves_are_refused_when_the_surface_is_made(features, match
 
 
 def test_a_curve_off_the_surface_is_refused_when_meshing():
-    s = rdmesh.ImplicitSurface(box, ((0, 0, 0), 2.0), features=[np.array([[0, 0, 0.5], [1, 1, 1]])])
+    s = rdmesh.ImplicitSurface(
+        box, ((0, 0, 0), 2.0), features=[np.array([[0, 0, 0.5], [1, 1, 1]])]
+    )
     with pytest.raises(FeatureError, match=r"features\[0\] is not on the surface"):
         rdmesh.mesh_surface(s, radius_bound=0.2)
 

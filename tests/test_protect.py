@@ -38,7 +38,6 @@ def check_invariants(balls):
     d = np.linalg.norm(c[i] - c[j], axis=1)
     assert (d < r[i] + r[j]).all()
     assert (d > np.maximum(r[i], r[j])).all()
-    n = len(c)
     dd = np.linalg.norm(c[:, None] - c[None], axis=2)
     near = dd <= r[:, None] + r[None, :]
     np.fill_diagonal(near, False)
@@ -123,7 +122,7 @@ def test_the_core_keeps_consecutive_centres_as_edges():
     assert (new >= 0).all()
     rdt.check()  # a valid regular triangulation
     off, adj = rdt.neighbours(ids[b.pairs[:, 0]])
-    for k, (u, v) in enumerate(b.pairs):
+    for k, (_u, v) in enumerate(b.pairs):
         assert ids[v] in adj[off[k] : off[k + 1]]
 
 

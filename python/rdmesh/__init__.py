@@ -21,8 +21,8 @@ from ._errors import (
     StoppedEarly,
 )
 from .api import mesh_surface
-from .features import FeatureError, MeshFeatures
 from .core import CGAL_VERSION
+from .features import FeatureError, MeshFeatures
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria
 from .surfaces.expressions import ExpressionError

@@ -111,8 +111,10 @@ def check_features(
     kept = count == want
     corner_balls = np.flatnonzero(balls.corner >= 0)
     corners = mesh_of[corner_balls]
-    failed = [0.5 * (balls.centres[balls.pairs[~kept, 0]] + balls.centres[balls.pairs[~kept, 1]]),
-              balls.centres[corner_balls[corners < 0]]]
+    failed = [
+        0.5 * (balls.centres[balls.pairs[~kept, 0]] + balls.centres[balls.pairs[~kept, 1]]),
+        balls.centres[corner_balls[corners < 0]],
+    ]
     return MeshFeatures(
         curves=[mesh_of[c] for c in balls.chains],
         corners=corners,

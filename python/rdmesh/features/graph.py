@@ -298,9 +298,7 @@ def _cut(c: FeatureCurve, cuts: list, tol: float) -> list[FeatureCurve]:
     if c.closed and len(pieces) > 1:
         # The piece through the closing point joins the first and last.
         pieces = [np.concatenate([pieces[-1], pieces[0][1:]])] + pieces[1:-1]
-    return [
-        FeatureCurve(p, False, c.source, c.project, c.label) for p in pieces if len(p) >= 2
-    ]
+    return [FeatureCurve(p, False, c.source, c.project, c.label) for p in pieces if len(p) >= 2]
 
 
 def _refuse_crossings(curves: list[FeatureCurve], tol: float) -> None:
@@ -331,7 +329,9 @@ def _refuse_crossings(curves: list[FeatureCurve], tol: float) -> None:
     if not close.any():
         return
     # Touching only at shared end points of open curves is allowed.
-    ends = np.concatenate([c.points[[0, -1]] for c in curves if not c.closed] or [np.zeros((0, 3))])
+    ends = np.concatenate(
+        [c.points[[0, -1]] for c in curves if not c.closed] or [np.zeros((0, 3))]
+    )
     for k in np.flatnonzero(close):
         s, t = pairs[k]
         x = _closest_point(a[s], b[s], a[t], b[t])

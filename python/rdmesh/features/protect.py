@@ -22,10 +22,15 @@ Sizes. The spacing ``h`` of the centres along a curve is at most:
 * for a corner, a third of the distance to the nearest other corner.
 
 ``h`` grows by at most :data:`GROWTH` per unit of arc (so consecutive spacings
-differ by a bounded ratio); a ball's radius is ``0.9 x`` its smaller spacing to
-a neighbour, and at most ``0.9 h`` at its centre. The invariants are then checked exactly on the balls; where one
-fails the spacing there shrinks and the curve is sampled again, at most
-:data:`MAX_LOOPS` times (CGAL caps its loop at 29, with a warning only).
+differ by a bounded ratio). Corner balls have radius at most half the spacing
+there; an open curve's first ball sits a quarter spacing beyond the corner
+ball. A ball's radius is 0.9 times its smaller spacing to a neighbour and at
+most 0.9 h at its centre. The invariants are then checked exactly on the
+balls and repaired as Mesh_3's ``refine_balls`` and
+``check_and_repopulate_edges`` do: balls that meet but are not consecutive
+shrink to their distance / 2.1, and new balls fill a stretch that consecutive
+balls no longer cover; at most :data:`MAX_LOOPS` times (CGAL caps its loop at
+29, with a warning only), after which :class:`FeatureError` is raised.
 """
 
 from __future__ import annotations
@@ -171,8 +176,13 @@ def protect(
     """
     curves = graph.curves
     floor = MIN_SIZE * radius
-    h_max = float(np.max(edge_size(np.concatenate([c.points for c in curves] or
-                                                   [graph.corners, np.zeros((1, 3))]))))
+    h_max = float(
+        np.max(
+            edge_size(
+                np.concatenate([c.points for c in curves] or [graph.corners, np.zeros((1, 3))])
+            )
+        )
+    )
     dense = [_densify(c, h_max) for c in curves]
     state = _place(graph, dense, edge_size, sheets, distance, shrink or [])
     boundary = np.array([c.source in boundary_sources for c in curves], bool)
@@ -294,7 +304,9 @@ def _write_radii(balls: Balls, st: _State, r: np.ndarray) -> None:
         st.r[i] = r[mine][np.argsort(balls.index[mine])]
 
 
-def _split(balls: Balls, st: _State, graph: FeatureGraph, which: np.ndarray, r: np.ndarray) -> None:
+def _split(
+    balls: Balls, st: _State, graph: FeatureGraph, which: np.ndarray, r: np.ndarray
+) -> None:
     """New balls between the consecutive pairs ``which`` (indices into pairs)."""
     add: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
     for k in which:
@@ -315,7 +327,9 @@ def _split(balls: Balls, st: _State, graph: FeatureGraph, which: np.ndarray, r: 
         else:
             n = int(np.ceil((hi - lo) / max(step, 1e-300)))
             s_new = lo + (hi - lo) * np.arange(n + 1) / max(n, 1)
-            r_new = np.full(len(s_new), RADIUS_FACTOR * min(step, (hi - lo) / max(n, 1) + 0.5 * step))
+            r_new = np.full(
+                len(s_new), RADIUS_FACTOR * min(step, (hi - lo) / max(n, 1) + 0.5 * step)
+            )
         if c.closed:
             s_new = np.mod(s_new, c.length)
         add.setdefault(i, []).append((s_new, r_new))
@@ -402,8 +416,9 @@ def _place(graph, dense, edge_size, sheets, distance, shrink) -> _State:
     n_c = len(corners)
     # Every dense point, with its curve and arc, for the distance limits.
     all_x = np.concatenate([d.x for d in dense] + [np.zeros((0, 3))])
-    all_c = np.concatenate([np.full(len(d.s), i) for i, d in enumerate(dense)] +
-                           [np.zeros(0, np.int64)]).astype(np.int64)
+    all_c = np.concatenate(
+        [np.full(len(d.s), i) for i, d in enumerate(dense)] + [np.zeros(0, np.int64)]
+    ).astype(np.int64)
     all_s = np.concatenate([d.s for d in dense] + [np.zeros(0)])
     tree = cKDTree(all_x) if len(all_x) else None
     # Corner radii.
@@ -463,10 +478,7 @@ def _place(graph, dense, edge_size, sheets, distance, shrink) -> _State:
             a, b = ends[i]
             s_k = _open_positions(d, h, corners[a], r_corner[a], corners[b], r_corner[b])
         x = c.on_curve(s_k)
-        if c.closed:
-            ring = np.r_[x, x[:1]]
-        else:
-            ring = np.r_[corners[a : a + 1], x, corners[b : b + 1]]
+        ring = np.r_[x, x[:1]] if c.closed else np.r_[corners[[a]], x, corners[[b]]]
         gaps = row_norms(np.diff(ring, axis=0))
         near = np.minimum(gaps, np.roll(gaps, 1)) if c.closed else np.minimum(gaps[:-1], gaps[1:])
         # Also below the local limit at the ball itself (other curves, sheets).

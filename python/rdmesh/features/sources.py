@@ -161,8 +161,9 @@ def volume_box_curves(volume, curve: BoundaryCurve) -> tuple[list[FeatureCurve],
     return curves, box_corners[inside_corner]
 
 
-def feature_graph(surface, *, boundary: BoundaryCurve | None = None,
-                  volume_curve: BoundaryCurve | None = None) -> FeatureGraph:
+def feature_graph(
+    surface, *, boundary: BoundaryCurve | None = None, volume_curve: BoundaryCurve | None = None
+) -> FeatureGraph:
     """Every feature curve of a surface: its given polylines, its clip
     boundary (``boundary``, traced) and, for a volume closed by its box, the
     box's creases (``volume_curve``, traced on the box)."""

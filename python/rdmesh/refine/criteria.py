@@ -142,7 +142,11 @@ class FacetCriteria:
             large = radii > psi
             bad |= large if skip is None else large & ~skip.size
         if self.distance_bound is not None:
-            cc = circumcentres(corners) if skip is None else weighted_circumcentres(corners, weights)
+            cc = (
+                circumcentres(corners)
+                if skip is None
+                else weighted_circumcentres(corners, weights)
+            )
             far = np.linalg.norm(cc - centres, axis=1) > self.distance_bound
             bad |= far if skip is None else far & ~skip.distance
         if skip is not None:

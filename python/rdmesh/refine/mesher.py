@@ -21,6 +21,7 @@ import numpy as np
 from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._tol import REGION_LINK
+from ..features.check import check_features, repair_sites
 from ..io.result import SurfaceMesh
 from ..sampling.boundary import BoundaryCurve, guard_boundary
 from ..sampling.domain import clip_box
@@ -30,7 +31,6 @@ from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
 from ..topology.regions import describe_regions, regions
-from ..features.check import check_features, repair_sites
 from .check import check_restricted
 from .criteria import FacetCriteria
 from .floor import SpacingFloor

@@ -22,18 +22,17 @@ from scipy.spatial import cKDTree
 
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
+from ..features import Balls, FeatureGraph, protect
+from ..features.sources import check_on_surface, feature_graph
 from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
 from ..sampling.critical import CriticalPoints, critical_points
 from ..sampling.discovery import Discovery, discover
 from ..sampling.domain import clip_box, depth, on_clip_surface
 from ..sampling.grid import GridScan, fibonacci_sphere, grid_scan
-from ..sampling.probes import Probes, surface_probes
+from ..sampling.probes import Probes, surface_probes, unit_normals
 from ..surfaces.oracle import ImplicitSurface
 from ..surfaces.volume import VolumeSurface
 from ..topology.tests import CELL_NORMAL_ANGLE, PROBE_TARGET, TESTS
-from ..features import Balls, FeatureGraph, protect
-from ..features.sources import check_on_surface, feature_graph
-from ..sampling.probes import unit_normals
 from .criteria import FacetCriteria, Sizing
 from .stages import FacetStage, Stage, TestStage
 
