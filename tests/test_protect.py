@@ -128,21 +128,31 @@ def test_the_core_keeps_consecutive_centres_as_edges():
 
 def test_the_core_refuses_a_ball_that_hides_a_vertex():
     rdt = core.RestrictedDelaunay(np.zeros(3), 2.0)
-    rdt.insert(np.array([[0.0, 0.0, 0.1]]))
+    rdt.insert(np.array([[0.0, 0.0, 0.0]]))
+    # A ball centred on a sample.
     with pytest.raises(ValueError, match="would hide"):
         rdt.insert(np.array([[0.0, 0.0, 0.0]]), np.array([0.25]))
+    # A ball whose power cell swallows a sample's: the sample at the origin,
+    # its neighbours' balls around it, then one more over it.
+    ring = np.array([[0.3, 0, 0], [-0.3, 0, 0], [0, 0.3, 0], [0, -0.3, 0], [0, 0, 0.3]])
+    rdt.insert(ring, np.full(5, 0.04))
+    with pytest.raises(ValueError, match="would hide 1 vertices"):
+        rdt.insert(np.array([[0.0, 0.0, -0.3]]), np.array([0.2]))
     with pytest.raises(ValueError, match="weight"):
         rdt.insert(np.array([[0.5, 0.0, 0.0]]), np.array([-1.0]))
     with pytest.raises(ValueError, match="weights must have shape"):
         rdt.insert(np.array([[0.5, 0.0, 0.0]]), np.array([1.0, 2.0]))
 
 
-def test_a_sample_deep_in_a_ball_is_hidden():
+def test_a_sample_a_ball_hides_is_not_a_vertex():
     rdt = core.RestrictedDelaunay(np.zeros(3), 2.0)
     rdt.insert(np.array([[0.0, 0.0, 0.0]]), np.array([0.25]))
-    ids = rdt.insert(np.array([[0.0, 0.0, 0.05], [1.0, 0.0, 0.0]]))
-    assert ids[0] == -1 and ids[1] >= 0
-    assert rdt.number_of_samples == 2
+    # At the ball's centre (a smaller weight there is hidden); a point inside
+    # the ball but not hidden (its power cell reaches out of the ball) is a
+    # vertex, which is why seeds in balls are dropped before insertion.
+    ids = rdt.insert(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.05], [1.0, 0.0, 0.0]]))
+    assert ids[0] == -1 and ids[1] >= 0 and ids[2] >= 0
+    assert rdt.number_of_samples == 3
 
 
 def test_mesh_3_relaxation_next_to_balls():

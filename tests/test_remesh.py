@@ -193,9 +193,24 @@ def test_overlapping_parts_give_their_union():
     assert euler_per_component(mesh.faces, len(mesh.vertices)) == [2]
 
 
-def test_cube_creases_are_cut_within_the_bounds():
+def test_cube_creases_are_kept_by_default():
     v, f = cube()
     ms = MeshSurface((v, f))
+    assert len(ms.sharp_curves) == 12
+    mesh = rdmesh.mesh_surface(ms, radius_bound=ms.radius / 20, distance_bound=ms.radius / 200)
+    assert closed_manifold_problems(mesh.faces, len(mesh.vertices)) == []
+    assert mesh.features.held
+    # Corners and edges are on the output: no chamfer.
+    out = MeshSurface((mesh.vertices, mesh.faces), feature_angle=None)
+    corners = np.array([[1, 1, 1], [-1, -1, -1], [1, -1, 1]], float)
+    edges = np.array([[1, 1, 0.1], [0.2, -1, 1], [-1, 0.3, -1]], float)
+    for d in (out.signed_distance(corners), out.signed_distance(edges)):
+        assert np.abs(d).max() <= 1e-12
+
+
+def test_cube_creases_are_cut_within_the_bounds_without_features():
+    v, f = cube()
+    ms = MeshSurface((v, f), feature_angle=None)
     rb = ms.radius / 20
     db = rb / 10
     mesh = rdmesh.mesh_surface(ms, radius_bound=rb, distance_bound=db)
@@ -203,7 +218,7 @@ def test_cube_creases_are_cut_within_the_bounds():
     assert euler_per_component(mesh.faces, len(mesh.vertices)) == [2]
     assert np.abs(ms.signed_distance(mesh.vertices)).max() <= 1e-8
     # Corners and edges are cut off: outside the output, by less than the size bound.
-    out = MeshSurface((mesh.vertices, mesh.faces))
+    out = MeshSurface((mesh.vertices, mesh.faces), feature_angle=None)
     corners = np.array([[1, 1, 1], [-1, -1, -1], [1, -1, 1]], float)
     edges = np.array([[1, 1, 0.1], [0.2, -1, 1], [-1, 0.3, -1]], float)
     for d in (out.signed_distance(corners), out.signed_distance(edges)):

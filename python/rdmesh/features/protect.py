@@ -184,7 +184,7 @@ def protect(
         )
     )
     dense = [_densify(c, h_max) for c in curves]
-    state = _place(graph, dense, edge_size, sheets, distance, shrink or [])
+    state = _place(graph, dense, edge_size, sheets, distance, shrink or [], floor)
     boundary = np.array([c.source in boundary_sources for c in curves], bool)
     for loop in range(MAX_LOOPS):
         balls = _assemble(graph, state)
@@ -409,7 +409,7 @@ def _lipschitz(h: np.ndarray, s: np.ndarray, closed: bool, length: float) -> np.
     return np.minimum(fwd, bwd)
 
 
-def _place(graph, dense, edge_size, sheets, distance, shrink) -> _State:
+def _place(graph, dense, edge_size, sheets, distance, shrink, floor) -> _State:
     """The first placement: spacing from the limits, grown at most GROWTH per
     unit arc, centres at that spacing, radii 0.9 times it."""
     curves, corners, ends = graph.curves, graph.corners, graph.ends
@@ -471,7 +471,15 @@ def _place(graph, dense, edge_size, sheets, distance, shrink) -> _State:
         mine = slice(offsets[i], offsets[i + 1])
         gap = _curve_gap(d, i, c.closed, c.length, tree, all_c, all_s, in_corner, mine)
         h = np.minimum(own[i], gap)
-        h = _lipschitz(np.maximum(h, 1e-300), d.s, c.closed, c.length)
+        if h.min() < floor:
+            k = int(np.argmin(h))
+            raise FeatureError(
+                f"cannot protect {c.label or 'a feature curve'} near "
+                f"{np.round(d.x[k], 9).tolist()}: the balls there would be smaller than "
+                f"{floor:.3g} (another curve, a corner or another sheet of the surface is "
+                f"{h[k] / CURVE_GAP:.3g} away)"
+            )
+        h = _lipschitz(h, d.s, c.closed, c.length)
         if c.closed:
             s_k = _positions(d.s, h, True, c.length)
         else:
