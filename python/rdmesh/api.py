@@ -135,8 +135,12 @@ def mesh_surface(
 
     Raises
     ------
+    rdmesh.FeatureError
+        (a ValueError) A given feature curve is not on the surface, or the
+        curves cannot be protected (curves or corners closer than 1e-6 R).
     ValueError
-        Invalid criteria, method or topology; a surface clipped to a box
+        Invalid criteria, method or topology; given feature curves with the
+        topological-ball method or ``certify``; a surface clipped to a box
         with a topology other than "manifold-with-boundary", the
         topological-ball method or ``certify=True``, or whose ``clip_box``
         (reassigned since the surface was made) is no longer a valid box
@@ -153,8 +157,8 @@ def mesh_surface(
         is attached as ``.mesh`` and flagged ``complete=False`` (its report
         names the regions where tests still fail).
     rdmesh.Interrupted
-        Ctrl-C (KeyboardInterrupt) stopped the run; a BudgetExceeded with the
-        partial mesh attached.
+        Ctrl-C (KeyboardInterrupt) stopped the run; a StoppedEarly (not a
+        BudgetExceeded) with the partial mesh attached.
     rdmesh.RefinementStalled
         A refinement batch added no new sample; a BudgetExceeded with the
         partial mesh attached.
