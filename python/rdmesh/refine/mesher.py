@@ -110,27 +110,9 @@ class Mesher:
         self.rounds = 0
         #: Times the feature check failed and the run began again with smaller balls.
         self.repairs = 0
-        self._fresh()
+        _fresh(self)
         #: Debug mode: check the bookkeeping every round (small runs only).
         self.check = os.environ.get("RDMESH_CHECK", "") not in ("", "0")
-
-    def _fresh(self) -> None:
-        """A new core, samples and pipeline (at the start, and for a repair)."""
-        surface = self.surface
-        self.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
-        box = clip_box(surface)
-        if box is not None:  # checked by mesh_surface: inside the ball, with a boundary
-            self.rdt.set_clip_box(box[0], box[1])
-        self.samples = Samples(self.rdt)
-        self.memo = LoopMemo()
-        self.proofs = ProofMemo()
-        self.pipeline = FacetPipeline(
-            self.rdt, surface, self.criteria, self.workers, self.timer, clipped=self.clipped
-        )
-        self.ball_ids = np.zeros(0, np.int64)
-        self.unresolved: list[np.ndarray] = []
-        self._snap: Snapshot | None = None
-        self.stalled = False
 
     def run(self) -> SurfaceMesh:
         """Mesh the surface; raises BudgetExceeded or Interrupted with the partial mesh.
@@ -144,7 +126,7 @@ class Mesher:
         ivals0 = getattr(self.surface.f, "interval_evaluations", 0)
         shrink: list[tuple[np.ndarray, np.ndarray]] = []
         while True:
-            mesh = self._attempt(t0, evals0, ivals0, shrink)
+            mesh = _attempt(self, t0, evals0, ivals0, shrink)
             sites = None if mesh.features is None else repair_sites(mesh, REPAIR_ANGLE)
             if sites is None or not len(sites[0]) or self.repairs == MAX_REPAIRS:
                 return mesh
@@ -153,58 +135,12 @@ class Mesher:
             log.info("features: shrinking balls at %d places and meshing again", len(sites[0]))
             shrink.append(sites)
             self.repairs += 1
-            self._fresh()
-
-    def _attempt(self, t0: float, evals0: int, ivals0: int, shrink: list) -> SurfaceMesh:
-        rng = np.random.default_rng(self.seed)
-        with self.timer("seeding"):
-            plan = METHODS[self.method](
-                self.surface, self.criteria, self.topology, rng, self.seed_resolution,
-                self.certify, edge_size=self.edge_size, shrink=shrink,
-            )  # fmt: skip
-        self.plan = plan
-        seeds, stop = plan.seeds, None
-        cap = self.budget.max_vertices
-        if cap is not None and len(seeds) > cap:
-            seeds, stop = seeds[:cap], f"max_vertices={cap} reached"
-        interrupted = False
-        try:
-            try:
-                if plan.balls is not None:
-                    # Balls first: they must not hide a vertex (the core refuses).
-                    self._insert(plan.balls.centres, "protect", plan.balls.weights)
-                    self.ball_ids = self.samples.last_ids
-                    self.pipeline.protected = True
-                self._insert(seeds, "seeds")
-                stop = self._loop(plan, t0, stop)
-                if not self.clipped:
-                    check_sphere_near(self.surface, self.vertices)
-            except KeyboardInterrupt:
-                interrupted, stop = True, "interrupted"
-                _restart_round(self)
-            mesh = _result(self, plan, t0, evals0, ivals0, stop)
-        finally:
-            self.pipeline.close()
-        if stop:
-            raise _stopped(stop, mesh, interrupted, self.stalled)
-        return mesh
+            _fresh(self)
 
     def _loop(self, plan: Plan, t0: float, stop: str | None) -> str | None:
         """Refinement rounds until nothing is left to refine or a budget runs out."""
         floor = SpacingFloor(self.criteria, self.surface.radius, plan.topology_floor)
-        place = None
-        if (
-            self.clipped
-            and plan.balls is None
-            and plan.boundary is not None
-            and len(plan.boundary.points)
-        ):
-            curve, sizing = plan.boundary, boundary_sizing(self.surface, self.criteria)
-
-            def place(found: Candidates, snap: Snapshot) -> tuple[Candidates, np.ndarray]:
-                return onto_curve(self.surface, curve, found, snap, sizing)
-
-        phases = Phases(plan.phases, floor, place)
+        phases = Phases(plan.phases, floor, _boundary_placer(self, plan))
         cap = self.budget.max_vertices
         # A round's cost (insert, update, stages, select) grows with the points
         # it inserts: the next round is predicted from this one per point.
@@ -270,6 +206,74 @@ class Mesher:
                 self.surface, self.rdt, self.vertices, self.memo, self.proofs, self.weights
             )
         return self._snap
+
+
+def _fresh(m: Mesher) -> None:
+    """A new core, samples and pipeline (at the start, and for a repair)."""
+    surface = m.surface
+    m.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
+    box = clip_box(surface)
+    if box is not None:  # checked by mesh_surface: inside the ball, with a boundary
+        m.rdt.set_clip_box(box[0], box[1])
+    m.samples = Samples(m.rdt)
+    m.memo = LoopMemo()
+    m.proofs = ProofMemo()
+    m.pipeline = FacetPipeline(m.rdt, surface, m.criteria, m.workers, m.timer, clipped=m.clipped)
+    m.ball_ids = np.zeros(0, np.int64)
+    m.unresolved: list[np.ndarray] = []
+    m._snap: Snapshot | None = None
+    m.stalled = False
+
+
+def _attempt(m: Mesher, t0: float, evals0: int, ivals0: int, shrink: list) -> SurfaceMesh:
+    """One meshing run from the seeds (the first, or a repair's with ``shrink``)."""
+    rng = np.random.default_rng(m.seed)
+    with m.timer("seeding"):
+        plan = METHODS[m.method](
+            m.surface, m.criteria, m.topology, rng, m.seed_resolution,
+            m.certify, edge_size=m.edge_size, shrink=shrink,
+        )  # fmt: skip
+    m.plan = plan
+    seeds, stop = plan.seeds, None
+    cap = m.budget.max_vertices
+    if cap is not None and len(seeds) > cap:
+        seeds, stop = seeds[:cap], f"max_vertices={cap} reached"
+    interrupted = False
+    try:
+        try:
+            if plan.balls is not None:
+                # Balls first: they must not hide a vertex (the core refuses).
+                m._insert(plan.balls.centres, "protect", plan.balls.weights)
+                m.ball_ids = m.samples.last_ids
+                m.pipeline.protected = True
+            m._insert(seeds, "seeds")
+            stop = m._loop(plan, t0, stop)
+            if not m.clipped:
+                check_sphere_near(m.surface, m.vertices)
+        except KeyboardInterrupt:
+            interrupted, stop = True, "interrupted"
+            _restart_round(m)
+        mesh = _result(m, plan, t0, evals0, ivals0, stop)
+    finally:
+        m.pipeline.close()
+    if stop:
+        raise _stopped(stop, mesh, interrupted, m.stalled)
+    return mesh
+
+
+def _boundary_placer(m: Mesher, plan: Plan):
+    """Without protecting balls, the boundary guard of a clipped surface
+    (:func:`onto_curve`), else None."""
+    if not m.clipped or plan.balls is not None or plan.boundary is None:
+        return None
+    if not len(plan.boundary.points):
+        return None
+    curve, sizing = plan.boundary, boundary_sizing(m.surface, m.criteria)
+
+    def place(found: Candidates, snap: Snapshot) -> tuple[Candidates, np.ndarray]:
+        return onto_curve(m.surface, curve, found, snap, sizing)
+
+    return place
 
 
 def _restart_round(m: Mesher) -> None:

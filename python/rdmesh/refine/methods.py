@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
 from ..features import Balls, FeatureGraph, protect
-from ..features.sources import check_on_surface, feature_graph
+from .feature_curves import check_on_surface, feature_graph
 from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
 from ..sampling.critical import CriticalPoints, critical_points
 from ..sampling.discovery import Discovery, discover

@@ -10,7 +10,7 @@ import numpy as np
 
 from .._vectors import row_norms
 from ..sampling.boundary import BoundaryCurve, project_onto_curve
-from .graph import (
+from ..features.graph import (
     FeatureCurve,
     FeatureError,
     FeatureGraph,
