@@ -20,6 +20,7 @@ from ._errors import (
     RefinementStalled,
 )
 from .api import mesh_surface
+from .batch import Job, JobResult, mesh_many
 from .core import CGAL_VERSION
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria
@@ -42,6 +43,8 @@ __all__ = [
     "ImplicitSurface",
     "InternalCheckError",
     "Interrupted",
+    "Job",
+    "JobResult",
     "MeshInputError",
     "MeshSurface",
     "OracleError",
@@ -49,6 +52,7 @@ __all__ = [
     "RefinementStalled",
     "SurfaceMesh",
     "VolumeSurface",
+    "mesh_many",
     "mesh_surface",
     "surfaces",
 ]
