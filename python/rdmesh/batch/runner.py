@@ -344,7 +344,13 @@ class _Runner:
             # A job's pickled surface can be large (a mesh); it is meant to travel.
             with dask.config.set({"distributed.admin.large-graph-warning-threshold": "4GiB"}):
                 future = self.client.submit(
-                    run_task, payload, self.topic, key=f"rdmesh-job-{self.token}-{i}", pure=False
+                    run_task,
+                    payload,
+                    i,
+                    task.name,
+                    self.topic,
+                    key=f"rdmesh-job-{self.token}-{i}",
+                    pure=False,
                 )
             self.running[future] = _Running(i, time.monotonic())
             free -= 1

@@ -47,12 +47,23 @@ def announce(topic: str | None) -> str | None:
     return worker.address
 
 
-def run_task(payload: bytes, topic: str | None = None) -> JobResult:
-    """Run the pickled :class:`Task` ``payload``; the function the client submits."""
+def run_task(payload: bytes, index: int, name: str, topic: str | None = None) -> JobResult:
+    """Run the pickled :class:`Task` ``payload`` (job ``index``, called ``name``);
+    the function the client submits."""
     address = announce(topic)
-    task: Task = loads(payload)
     t0 = time.perf_counter()
-    result = run(task)
+    try:
+        task: Task = loads(payload)
+    except Exception as exc:  # noqa: BLE001 - e.g. a module missing on this worker
+        result = JobResult(
+            index,
+            name,
+            "failed",
+            error=f"the job could not be unpickled on the worker (is everything it uses "
+            f"importable there?): {type(exc).__name__}: {_one_line(exc)}",
+        )
+    else:
+        result = run(task)
     result.seconds = time.perf_counter() - t0
     result.worker = address
     return result
