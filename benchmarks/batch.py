@@ -277,12 +277,19 @@ def _warm_up() -> None:
     import rdmesh.cli  # noqa: F401
 
 
-def serial(cases: list[Case]) -> tuple[float, dict[str, tuple[str, str]]]:
-    """Mesh every case here; the time and each mesh's hashes (float64, float32)."""
+def _cpu_seconds() -> float:
+    """CPU time of this process (on a worker: the worker's), all threads."""
+    import psutil
+
+    times = psutil.Process().cpu_times()
+    return times.user + times.system
+
+
+def serial(cases: list[Case]) -> dict[str, tuple[str, str]]:
+    """Mesh every case here; each mesh's hashes (float64, float32)."""
     import rdmesh
 
     hashes = {}
-    t0 = time.perf_counter()
     for case in cases:
         line = job_line(case)
         mesh = rdmesh.mesh_surface(line.spec(), **line.options)
@@ -290,7 +297,7 @@ def serial(cases: list[Case]) -> tuple[float, dict[str, tuple[str, str]]]:
             digest(mesh.vertices, mesh.faces),
             digest(mesh.vertices, mesh.faces, np.float32),
         )
-    return time.perf_counter() - t0, hashes
+    return hashes
 
 
 def check(results, cases, hashes, lost: set[int] = frozenset()) -> dict[str, Any]:
@@ -382,28 +389,33 @@ def timed(good: list[Case], client) -> tuple[dict[str, Any], dict[str, tuple[str
     import rdmesh
 
     client.run(_warm_up)  # the workers import rdmesh, as this process has
-    t_serial = t_parallel = 0.0
+    wall = {"serial": 0.0, "parallel": 0.0}
+    cpu = {"serial": 0.0, "workers": 0.0, "client": 0.0}
     hashes: dict[str, tuple[str, str]] = {}
     by_name = {}
     for k, half in enumerate([good[0::2], good[1::2]]):
         for mode in ("serial", "parallel") if k == 0 else ("parallel", "serial"):
+            t0, c0 = time.perf_counter(), time.process_time()
             if mode == "serial":
-                seconds, h = serial(half)
-                t_serial += seconds
-                hashes.update(h)
+                hashes.update(serial(half))
+                cpu["serial"] += time.process_time() - c0
             else:
-                t0 = time.perf_counter()
+                w0 = sum(client.run(_cpu_seconds).values())
+                t0, c0 = time.perf_counter(), time.process_time()
                 for r in rdmesh.mesh_many([as_job(c) for c in half], client=client):
                     by_name[r.name] = r
-                t_parallel += time.perf_counter() - t0
+                cpu["client"] += time.process_time() - c0
+                cpu["workers"] += sum(client.run(_cpu_seconds).values()) - w0
+            wall[mode] += time.perf_counter() - t0
             print(f"  {mode}, half {k}: load {load()}", file=sys.stderr)
     results = [by_name[c.name] for c in good]
     out = check(results, good, hashes)
     out.update(
-        serial_seconds=t_serial,
-        parallel_seconds=t_parallel,
-        ratio=t_parallel / t_serial,
+        serial_seconds=wall["serial"],
+        parallel_seconds=wall["parallel"],
+        ratio=wall["parallel"] / wall["serial"],
         worker_seconds=sum(r.seconds for r in results),
+        cpu_seconds=cpu,
     )
     return out, hashes
 
@@ -463,7 +475,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--record", help="the JSON record (default results/batch-<date>.json)")
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
-    logging.getLogger("distributed").setLevel(logging.CRITICAL)
+    logging.getLogger("distributed").propagate = False  # mesh_many quiets its own handlers
 
     from rdmesh.batch.runner import _cluster
 
@@ -576,6 +588,7 @@ def cli_checks(cases, hashes, out: Path, crash, resume, rerun) -> dict[str, Any]
 def table(record: dict[str, Any], cases: list[Case]) -> str:
     """The Markdown tables of the run."""
     par, iso, cli = record["parallel"], record["isolation"], record["cli"]
+    cpu = par["cpu_seconds"]
     jobs = record["jobs"]
     n_good, n_bad = jobs["good"], sum(c.expect != "ok" for c in cases)
     rows = [
@@ -587,6 +600,12 @@ def table(record: dict[str, Any], cases: list[Case]) -> str:
             f"started in {record['cluster_start_seconds']:.1f} s before)",
         ),
         ("workers busy", f"{par['worker_seconds']:.1f} s of 2 x {par['parallel_seconds']:.1f} s"),
+        (
+            "CPU time, serial; 2 workers",
+            f"{cpu['serial']:.1f} s; {cpu['workers']:.1f} s on the workers + "
+            f"{cpu['client']:.1f} s here (client, scheduler, nannies) = "
+            f"{(cpu['workers'] + cpu['client']) / cpu['serial']:.2f} x serial",
+        ),
         ("good jobs ok, identical to serial", f"{par['identical']}/{n_good}"),
         ("all jobs, one worker killed (SIGKILL)", f"{iso['seconds']:.1f} s"),
         ("- good jobs ok, identical to serial", f"{iso['identical']}/{n_good - len(iso['lost'])}"),

@@ -360,6 +360,7 @@ def test_exit_status_0_when_every_job_is_ok_and_the_bar_on_request(tmp_path, sch
         (["jobs.jsonl", "--out", "out", "--scheduler", "tcp://x:1", "--memory-limit", "1GiB"],
          "--memory-limit applies to the local cluster"),
         (["jobs.jsonl", "--out", "out", "--hard-timeout", "-1"], "must be positive"),
+        (["jobs.jsonl", "--out", "out", "--memory-limit", "lots"], "a size such as 4GiB"),
         (["jobs.jsonl"], "required: --out"),
     ],
 )  # fmt: skip

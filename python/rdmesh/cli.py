@@ -437,6 +437,8 @@ def _batch(args) -> int:
 
     if args.memory_limit is not None and args.scheduler is not None:
         raise _CliError("--memory-limit applies to the local cluster, not with --scheduler")
+    if args.memory_limit is not None:
+        _check_memory_limit(args.memory_limit)
     if not os.path.isfile(args.jobs):
         raise _CliError(f"cannot read {args.jobs!r}: no such file")
     if os.path.exists(args.out) and not os.path.isdir(args.out):
@@ -523,6 +525,21 @@ def _batch_run(args, manifest, lines) -> tuple[dict[str, int], int]:
                     on_result=on_result,
                 )
     return counts, skipped
+
+
+def _check_memory_limit(text: str) -> None:
+    try:
+        from dask.utils import parse_bytes
+    except ImportError:
+        raise _CliError("rdmesh batch needs Dask: pip install 'rdmesh[dask]'") from None
+    if text.strip().lower() == "auto":
+        return
+    try:
+        size = parse_bytes(text)
+    except (ValueError, TypeError):
+        size = 0
+    if size <= 0:
+        raise _CliError(f"--memory-limit must be a size such as 4GiB or 500MB, got {text!r}")
 
 
 @contextlib.contextmanager
