@@ -17,53 +17,57 @@ and ``rdmesh batch`` does the same from a file of jobs.
 import rdmesh
 from rdmesh.surfaces import SURFACES
 
-jobs = []
-for info in SURFACES.values():
-    surface = info.make()
-    jobs.append(rdmesh.Job(surface, radius_bound=surface.radius / 40, max_vertices=50_000))
 
-
-# A surface function with a bug: its job fails with the error, the others go on.
 def broken(p):
+    """A surface function with a bug: its job fails with the error."""
     raise KeyError("a bug in the surface function")
 
 
-jobs.append(rdmesh.Job(rdmesh.ImplicitSurface(broken, ((0, 0, 0), 2.0)), name="broken"))
-# A budget that is too small: the job stops, with the partial mesh.
-torus = rdmesh.surfaces.torus()
-jobs.append(rdmesh.Job(torus, name="torus, 0.5 s", radius_bound=0.005, time_limit=0.5))
+def make_jobs() -> list[rdmesh.Job]:
+    jobs = []
+    for name, info in SURFACES.items():
+        surface = info.make()
+        bound = surface.radius / 40
+        jobs.append(rdmesh.Job(surface, name=name, radius_bound=bound, max_vertices=50_000))
+    jobs.append(rdmesh.Job(rdmesh.ImplicitSurface(broken, ((0, 0, 0), 2.0)), name="broken"))
+    # A budget that is too small: the job stops, with the partial mesh.
+    torus = rdmesh.surfaces.torus()
+    jobs.append(rdmesh.Job(torus, name="torus, 0.5 s", radius_bound=0.005, time_limit=0.5))
+    return jobs
 
-results = rdmesh.mesh_many(jobs, n_workers=2)
+
+def print_table(results: list[rdmesh.JobResult]) -> None:
+    """Status, vertices, the smallest angle in degrees, components and Euler
+    characteristic (found / known), the time on the worker in seconds; then
+    the errors."""
+    header = ("surface", "status", "vertices", "min angle", "components", "Euler", "seconds")
+    rows = [header]
+    for result in results:
+        topo, info = result.topology, SURFACES.get(result.name)
+        row = [result.name, result.status, "", "", "", "", f"{result.seconds:.2f}"]
+        if topo:
+            row[2] = str(topo["vertices"])
+            row[3] = f"{topo['min_angle']:.1f}"
+            row[4] = str(topo["components"]) + (f" / {info.components}" if info else "")
+            row[5] = str(sum(topo["euler"])) + (f" / {info.euler}" if info else "")
+        rows.append(row)
+    widths = [max(len(r[i]) for r in rows) for i in range(len(header))]
+    for row in rows:
+        print("  ".join(c.rjust(w) for c, w in zip(row, widths, strict=True)))
+    print()
+    for result in results:
+        if result.error:
+            print(f"{result.name}: {result.status}: {result.error}")
+
 
 # %%
-# The table: status, vertices, the smallest angle in degrees, components and
-# Euler characteristic (found / known), and the time on the worker in seconds.
-# The errors follow.
+# The worker processes are new Python processes that import this script, as
+# with :mod:`multiprocessing`: the batch runs under ``if __name__ ==
+# "__main__":``. Then the table, and thumbnails of four of the meshes.
 
-header = ("surface", "status", "vertices", "min angle", "components", "Euler", "seconds")
-rows = [header]
-for result in results:
-    topo, info = result.topology, SURFACES.get(result.name)
-    row = [result.name, result.status, "", "", "", "", f"{result.seconds:.2f}"]
-    if topo:
-        euler = sum(topo["euler"])
-        row[2:6] = [str(topo["vertices"]), f"{topo['min_angle']:.1f}", str(topo["components"]),
-                    str(euler)]  # fmt: skip
-        if info:
-            row[4] += f" / {info.components}"
-            row[5] += f" / {info.euler}"
-    rows.append(row)
-widths = [max(len(r[i]) for r in rows) for i in range(len(header))]
-for row in rows:
-    print("  ".join(c.rjust(w) for c, w in zip(row, widths, strict=True)))
-print()
-for result in results:
-    if result.error:
-        print(f"{result.name}: {result.status}: {result.error}")
-
-# %%
-# Thumbnails of four of them.
-
-meshes = {r.name: r.mesh for r in results if r.ok}
-for name in ("double_torus", "tanglecube", "two_spheres", "blob_line"):
-    meshes[name].render(f"batch_{name}.png", title=name.replace("_", " "), size=400)
+if __name__ == "__main__":
+    results = rdmesh.mesh_many(make_jobs(), n_workers=2)
+    print_table(results)
+    meshes = {r.name: r.mesh for r in results if r.ok}
+    for name in ("double_torus", "tanglecube", "two_spheres", "blob_line"):
+        meshes[name].render(f"batch_{name}.png", title=name.replace("_", " "), size=400)

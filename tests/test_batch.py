@@ -208,6 +208,22 @@ def test_without_a_client_a_local_cluster_is_started_and_closed():
     assert {p.pid for p in multiprocessing.active_children()} == before  # its worker is gone
 
 
+@pytest.mark.slow  # its own cluster, and a worker restart
+def test_a_job_over_the_memory_limit_fails_and_the_others_go_on():
+    hoard = []
+
+    def f(p):
+        while True:  # 40 MB more every few milliseconds, touched, until the nanny steps in
+            hoard.append(np.ones(5_000_000))
+            time.sleep(0.005)
+
+    results = rdmesh.mesh_many(
+        [surface_of(f, "hoarder"), ball()], n_workers=1, memory_limit="1GiB", radius_bound=0.4
+    )
+    assert [r.status for r in results] == ["failed", "ok"]
+    assert results[0].error.startswith("out of memory: its worker used")
+
+
 def test_the_default_hard_timeout_follows_the_time_limit():
     from rdmesh.batch.runner import HARD_TIMEOUT_FACTOR, HARD_TIMEOUT_MARGIN, _hard_limit
 
