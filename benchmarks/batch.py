@@ -340,7 +340,7 @@ class WorkerKiller(threading.Thread):
             time.sleep(0.05)
             pids = self.client.run(os.getpid)
             for worker, keys in self.client.processing().items():
-                jobs = [int(str(k).rsplit("-", 1)[1]) for k in keys]
+                jobs = [int(str(k).rsplit("-", 1)[1]) for k in keys]  # ...-a<attempt>-<index>
                 good = [i for i in jobs if i in self.good]
                 if good and worker in pids:
                     os.kill(pids[worker], signal.SIGKILL)

@@ -224,6 +224,36 @@ def test_a_job_over_the_memory_limit_fails_and_the_others_go_on():
     assert results[0].error.startswith("out of memory: its worker used")
 
 
+def test_a_job_whose_worker_died_before_it_started_is_sent_once_more():
+    from rdmesh.batch.runner import _Runner, _Running
+    from rdmesh.batch.worker import Task
+
+    class Died:
+        key = "rdmesh-job-x-a0-0"
+
+        def result(self):
+            raise distributed.KilledWorker(self.key, None, 0)
+
+    recorded = []
+    runner = _Runner(None, [Task(0, "victim", None)], [None], recorded.append)
+    runner.pending.clear()
+    runner.running[Died()] = _Running(0, time.monotonic())  # no start announced
+    runner._collect(next(iter(runner.running)))
+    assert list(runner.pending) == [0] and runner.attempts == [1] and recorded == []
+    runner.pending.clear()
+    runner.running[Died()] = _Running(0, time.monotonic(), attempt=1)
+    runner._collect(next(iter(runner.running)))
+    assert [r.status for r in recorded] == ["failed"] and not runner.pending
+    assert "worker process died" in recorded[0].error
+    # A job that had started is not sent again: it may be what killed its worker.
+    recorded.clear()
+    runner._starts[Died.key] = (time.monotonic(), "tcp://worker")
+    runner.running[Died()] = _Running(0, time.monotonic())
+    runner._collect(next(iter(runner.running)))
+    assert [r.status for r in recorded] == ["failed"] and not runner.pending
+    assert recorded[0].worker == "tcp://worker"
+
+
 def test_the_default_hard_timeout_follows_the_time_limit():
     from rdmesh.batch.runner import HARD_TIMEOUT_FACTOR, HARD_TIMEOUT_MARGIN, _hard_limit
 

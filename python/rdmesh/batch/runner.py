@@ -35,6 +35,10 @@ ALLOWED_FAILURES = 0
 HARD_TIMEOUT_FACTOR = 2.0
 #: ... plus this many seconds (making the surface, the report, writing).
 HARD_TIMEOUT_MARGIN = 30.0
+#: Times a job whose worker died before the job started (so it cannot have killed
+#: it: it waited there behind another job, as can happen while a worker restarts) is
+#: sent again. A job whose start was announced is never sent again.
+UNSTARTED_RETRIES = 1
 #: Seconds between checks of the hard timeouts and of the cluster's size.
 POLL = 0.25
 #: Give up on the jobs left when the cluster has had no worker for this long.
@@ -269,6 +273,7 @@ def _cluster(client: Any, n_workers: int | None, memory_limit: Any) -> Iterator[
 class _Running:
     index: int
     submitted: float
+    attempt: int = 0
     started: float | None = None
     worker: str | None = None
 
@@ -289,6 +294,7 @@ class _Runner:
         self.finish = finish
         self.results: list[JobResult | None] = [None] * len(tasks)
         self.pending = deque(range(len(tasks)))
+        self.attempts = [0] * len(tasks)
         self.running: dict[Any, _Running] = {}
         self.token = uuid.uuid4().hex[:12]
         self.topic = f"rdmesh-batch-{self.token}"
@@ -361,10 +367,10 @@ class _Runner:
                     i,
                     task.name,
                     self.topic,
-                    key=f"rdmesh-job-{self.token}-{i}",
+                    key=f"rdmesh-job-{self.token}-a{self.attempts[i]}-{i}",
                     pure=False,
                 )
-            self.running[future] = _Running(i, time.monotonic())
+            self.running[future] = _Running(i, time.monotonic(), self.attempts[i])
             free -= 1
 
     def _collect(self, future: Any) -> None:
@@ -376,6 +382,12 @@ class _Runner:
         try:
             result = future.result()
         except KilledWorker as exc:
+            if run.started is None and run.attempt < UNSTARTED_RETRIES:
+                log.info("job %d (%s): its worker died before it started; again", run.index,
+                         task.name)  # fmt: skip
+                self.attempts[run.index] += 1
+                self.pending.appendleft(run.index)
+                return
             result = JobResult(
                 run.index,
                 task.name,
