@@ -1,4 +1,4 @@
-"""The ``rdmesh`` command line: ``mesh``, ``remesh``, ``demo`` and ``list``.
+"""The ``rdmesh`` command line: ``mesh``, ``remesh``, ``batch``, ``demo`` and ``list``.
 
 ``rdmesh mesh SURFACE -o OUT`` meshes a built-in surface (``rdmesh list``) or
 an expression in x, y and z (``"x**2 + y**2 + z**2 - 1"``, with ``--bound R``
@@ -6,8 +6,10 @@ or ``--sphere cx,cy,cz,R``), optionally clipped to a box (``--clip-box X0 Y0 Z0
 X1 Y1 Z1``: the part inside it, with a boundary on its faces), and writes the
 mesh in the format its extension names, and with ``--png`` a picture.
 ``rdmesh remesh IN -o OUT`` remeshes a triangle mesh file
-(:class:`rdmesh.MeshSurface`). ``rdmesh demo`` meshes a built-in surface and
-writes the mesh and a picture.
+(:class:`rdmesh.MeshSurface`). ``rdmesh batch JOBS.jsonl --out DIR`` meshes
+the jobs of a JSONL file in parallel on a Dask cluster (:mod:`rdmesh.batch`),
+writing ``DIR/<name>.ply`` and ``DIR/manifest.jsonl``; a second run resumes.
+``rdmesh demo`` meshes a built-in surface and writes the mesh and a picture.
 
 Output: the summary goes to stdout; the progress bar (runs over a second),
 log messages and errors go to stderr. ``--quiet`` keeps stderr silent unless
@@ -19,7 +21,8 @@ Exit status
     Success.
 1
     A budget (``--max-vertices``, ``--time-limit``) stopped refinement; the
-    partial mesh was written and stderr says so.
+    partial mesh was written and stderr says so. ``batch``: some job stopped
+    or failed, or a line of the jobs file is bad (the others ran).
 2
     Bad input: unknown surface, bad expression, bad option, unwritable output,
     a surface function that fails. One line on stderr, no traceback.
@@ -33,6 +36,7 @@ This is the only module of rdmesh that prints.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import math
 import os
@@ -220,6 +224,7 @@ def _parser() -> argparse.ArgumentParser:
 
     sub.add_parser("list", help="list the built-in surfaces")
     _add_remesh_parser(sub)
+    _add_batch_parser(sub)
     return p
 
 
@@ -379,22 +384,237 @@ def _feature_angle(text: str) -> float | str | None:
 
 
 def _remesh(args) -> int:
+    surface = _mesh_file_surface(args.input, args.feature_angle, _features(args))
+    return _run(args, surface, **_run_options(args))
+
+
+def _mesh_file_surface(path: str, feature_angle="auto", features=None) -> ImplicitSurface:
+    """The :class:`MeshSurface` of the mesh file ``path`` (``remesh`` and ``batch``)."""
     import trimesh
 
     from .surfaces.mesh import MeshSurface
 
-    path = args.input
     if not os.path.isfile(path):
         raise _CliError(f"cannot read {path!r}: no such file")
     try:
         loaded = trimesh.load(path, force="mesh")
     except Exception as exc:  # noqa: BLE001 - trimesh's loaders raise many types
         raise _CliError(f"cannot read {path!r} as a mesh: {_one_line(exc)}") from None
-    surface = MeshSurface(
-        loaded, name=os.path.basename(path), feature_angle=args.feature_angle,
-        features=_features(args),
-    )  # fmt: skip
-    return _run(args, surface, **_run_options(args))
+    return MeshSurface(
+        loaded, name=os.path.basename(path), feature_angle=feature_angle, features=features
+    )
+
+
+# -- batch: a JSONL file of jobs on a Dask cluster -------------------------------------
+
+_BATCH_EPILOG = (
+    "exit status: 0 every job ok; 1 some job stopped or failed, or a line is bad (the "
+    "others ran); 2 bad usage (no jobs file, unwritable folder, no cluster); 130 "
+    "interrupted (the manifest holds the jobs that ended; run again to resume)"
+)
+
+
+def _timeout(text: str) -> float | str | None:
+    if text.strip().lower() in ("none", "off"):
+        return None
+    if text.strip().lower() == "auto":
+        return "auto"
+    return _positive_float(text)
+
+
+def _add_batch_parser(sub) -> None:
+    """``rdmesh batch JOBS.jsonl --out DIR``: many jobs in parallel on Dask."""
+    b = sub.add_parser(
+        "batch",
+        help="mesh the jobs of a JSONL file in parallel (Dask), resumable",
+        description=(
+            "Mesh every job of JOBS.jsonl, one JSON object a line: 'name', one of "
+            "'expression' (with 'bound' or 'sphere'), 'surface' (a built-in name) or 'input' "
+            "(a mesh file, or a .npy volume with the volume options), and any of "
+            "angle_bound radius_bound distance_bound method topology time_limit max_vertices "
+            "seed (clip_box, and isovalue spacing origin inside interpolation border for "
+            "volumes, as 'rdmesh mesh' takes them). Relative input paths are from the jobs "
+            "file's folder. Each job makes the mesh of the single 'rdmesh mesh' or 'rdmesh "
+            "remesh', and writes DIR/<name>.ply; DIR/manifest.jsonl gets one record per job "
+            "as it ends. A second run skips the jobs the manifest holds as ok or stopped "
+            "(unchanged, with their mesh in place) and runs the failed ones again. Needs "
+            "Dask: pip install 'rdmesh[dask]'."
+        ),
+        epilog=_BATCH_EPILOG,
+    )
+    b.add_argument("jobs", metavar="JOBS.jsonl", help="the jobs, one JSON object a line")
+    b.add_argument("--out", required=True, metavar="DIR", help="folder of the meshes and manifest")
+    where = b.add_mutually_exclusive_group()
+    where.add_argument(
+        "--workers",
+        type=_positive_int,
+        metavar="N",
+        help="worker processes of the local cluster (default: one per core)",
+    )
+    where.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on an existing Dask cluster (tcp://host:8786); its workers need rdmesh and "
+        "must reach the input files and DIR at the same paths",
+    )
+    b.add_argument(
+        "--memory-limit",
+        metavar="SIZE",
+        help="memory of each local worker, e.g. 4GiB (default: the machine's memory / N); a "
+        "job that goes over fails with 'out of memory'",
+    )
+    b.add_argument(
+        "--hard-timeout",
+        type=_timeout,
+        default="auto",
+        metavar="SECONDS",
+        help="end a job that has not answered after this long, restarting its worker "
+        "(default auto: 2 x its time_limit + 30 s, none without time_limit; 'none': never)",
+    )
+    b.add_argument(
+        "--retry-stopped",
+        action="store_true",
+        help="run again the jobs that the manifest holds as stopped by a budget",
+    )
+    b.add_argument(
+        "--progress",
+        action="store_true",
+        help="show the progress bar even when stderr is not a terminal",
+    )
+    b.add_argument(
+        "--quiet", "-q", action="store_true", help="no progress bar, only errors on stderr"
+    )
+    b.add_argument("--verbose", "-v", action="store_true", help="log more on stderr")
+    b.set_defaults(run=_batch)
+
+
+def _batch(args) -> int:
+    from .batch.jobfile import read_jobs
+    from .batch.manifest import FolderBusy, Manifest
+
+    if args.memory_limit is not None and args.scheduler is not None:
+        raise _CliError("--memory-limit applies to the local cluster, not with --scheduler")
+    if args.memory_limit is not None:
+        _check_memory_limit(args.memory_limit)
+    if not os.path.isfile(args.jobs):
+        raise _CliError(f"cannot read {args.jobs!r}: no such file")
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise _CliError(f"--out {args.out!r} is a file, not a folder")
+    try:
+        lines, errors = read_jobs(args.jobs)
+    except UnicodeDecodeError as exc:
+        raise _CliError(f"cannot read {args.jobs!r}: not UTF-8 text ({exc.reason})") from None
+    for error in errors:
+        print(f"rdmesh: {args.jobs}:{error.line}: {error.message}", file=sys.stderr)
+    # Dask logs its start and each worker it restarts through its own handlers (which
+    # mesh_many quiets for a local cluster); the jobs' outcomes are reported here.
+    dask_log = logging.getLogger("distributed")
+    propagate = dask_log.propagate
+    dask_log.propagate = bool(args.verbose)
+    try:
+        with Manifest(args.out) as manifest:
+            counts, skipped = _batch_run(args, manifest, lines)
+    except FolderBusy as exc:
+        raise _CliError(str(exc)) from None
+    finally:
+        dask_log.propagate = propagate
+    bad = f", {len(errors)} bad lines" if errors else ""
+    print(
+        f"rdmesh batch: {len(lines) + len(errors)} jobs: {counts['ok']} ok, "
+        f"{counts['stopped']} stopped, {counts['failed']} failed{bad} ({skipped} done "
+        f"before, skipped); manifest {manifest.path}"
+    )
+    clean = counts["stopped"] == counts["failed"] == 0 and not errors
+    return EXIT_OK if clean else EXIT_BUDGET
+
+
+def _batch_run(args, manifest, lines) -> tuple[dict[str, int], int]:
+    """Run the jobs the manifest does not hold as done; returns the counts of each
+    status (the skipped jobs' included) and the number skipped."""
+    from tqdm import tqdm
+
+    from .batch import mesh_many
+    from .batch.bar import JobBar
+    from .batch.manifest import record
+
+    counts = dict.fromkeys(("ok", "stopped", "failed"), 0)
+    todo = []
+    for line in lines:
+        if manifest.done(line, retry_stopped=args.retry_stopped):
+            counts[manifest.records[line.name]["status"]] += 1
+        else:
+            todo.append(line)
+    skipped = len(lines) - len(todo)
+    if skipped:
+        log.warning("%d of %d jobs are in %s as done; skipped", skipped, len(lines), manifest.path)
+    outputs = [os.path.join(args.out, f"{line.name}.ply") for line in todo]
+    for path in outputs:  # a job that runs again replaces its old mesh, or leaves none
+        if os.path.exists(path):
+            os.unlink(path)
+
+    def on_result(result) -> None:
+        line = todo[result.index]
+        if result.output is not None and not os.path.isfile(result.output):
+            result.status, result.output = "failed", None
+            result.error = (
+                f"the worker {result.worker} wrote the mesh, but it is not in {args.out!r} "
+                "here: with --scheduler, --out must be a folder the workers share"
+            )
+        manifest.append(record(result, line, args.out))
+        counts[result.status] += 1
+        bar.update(result)
+        if result.status != "ok":
+            tqdm.write(
+                f"rdmesh: {line.name} (line {line.line}) {result.status}: {result.error}",
+                file=sys.stderr,
+            )
+
+    show = args.progress or (sys.stderr.isatty() and not args.quiet)
+    with JobBar(len(lines), initial=skipped, disable=not show) as bar:
+        if todo:
+            with _batch_client(args.scheduler) as client:
+                mesh_many(
+                    [line.job(path) for line, path in zip(todo, outputs, strict=True)],
+                    client=client,
+                    n_workers=args.workers,
+                    memory_limit="auto" if args.memory_limit is None else args.memory_limit,
+                    hard_timeout=args.hard_timeout,
+                    on_result=on_result,
+                )
+    return counts, skipped
+
+
+def _check_memory_limit(text: str) -> None:
+    try:
+        from dask.utils import parse_bytes
+    except ImportError:
+        raise _CliError("rdmesh batch needs Dask: pip install 'rdmesh[dask]'") from None
+    if text.strip().lower() == "auto":
+        return
+    try:
+        size = parse_bytes(text)
+    except (ValueError, TypeError):
+        size = 0
+    if size <= 0:
+        raise _CliError(f"--memory-limit must be a size such as 4GiB or 500MB, got {text!r}")
+
+
+@contextlib.contextmanager
+def _batch_client(address: str | None):
+    """A client of the cluster at ``address`` (closed afterwards), or None: a local one."""
+    if address is None:
+        yield None
+        return
+    try:
+        from distributed import Client
+    except ImportError:
+        raise _CliError("rdmesh batch needs Dask: pip install 'rdmesh[dask]'") from None
+    try:
+        client = Client(address, timeout=30)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise _CliError(f"cannot reach the Dask scheduler {address!r}: {_one_line(exc)}") from None
+    with client:
+        yield client
 
 
 # -- running --------------------------------------------------------------------------
