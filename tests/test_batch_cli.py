@@ -149,7 +149,7 @@ def test_every_key_is_accepted_somewhere(inputs):
     lines = [
         {**GOOD, "angle_bound": 25, "radius_bound": 0.3, "distance_bound": 0.1, "seed": 1,
          "method": "boissonnat-oudot", "topology": "manifold", "time_limit": 5,
-         "max_vertices": 100},
+         "max_vertices": 100, "edge_size": 0.3},
         {"name": "b", "expression": "x - 0.1", "sphere": "0,0,0,2",
          "clip_box": [-1] * 3 + [1] * 3},
         {"name": "e", "surface": "two-spheres", "bound": 3},

@@ -79,7 +79,7 @@ class SurfaceSpec:
     volume: tuple[tuple[str, Any], ...] = ()
 
     def __call__(self) -> ImplicitSurface:
-        from .. import cli
+        from .. import _cli_surfaces as cli
 
         if self.kind == "mesh":
             return cli._mesh_file_surface(self.source)

@@ -323,7 +323,7 @@ class _Runner:
                     for future in done:
                         self._collect(future)
                 self._enforce_hard_timeouts()
-                self._check_workers()
+                _check_workers(self)
         finally:
             if self.running:  # interrupted: leave nothing behind on the cluster
                 self.client.cancel(list(self.running))
@@ -388,23 +388,10 @@ class _Runner:
                 self.attempts[run.index] += 1
                 self.pending.appendleft(run.index)
                 return
-            result = JobResult(
-                run.index,
-                task.name,
-                "failed",
-                error=self._death(exc),
-                seconds=time.monotonic() - (run.started or run.submitted),
-                worker=run.worker or _address(exc),
-            )
+            result = _failed(run, task, _death(self.client, exc), run.worker or _address(exc))
         except Exception as exc:  # noqa: BLE001 - whatever reached the client is recorded
-            result = JobResult(
-                run.index,
-                task.name,
-                "failed",
-                error=f"{type(exc).__name__}: {' '.join(str(exc).split())}",
-                seconds=time.monotonic() - (run.started or run.submitted),
-                worker=run.worker,
-            )
+            why = f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+            result = _failed(run, task, why, run.worker)
         self._record(result)
 
     def _started(self, future: Any, run: _Running) -> None:
@@ -413,27 +400,6 @@ class _Runner:
                 start = self._starts.pop(future.key, None)
             if start is not None:
                 run.started, run.worker = start
-
-    def _death(self, exc: Any) -> str:
-        """Why a job's worker died, as far as the scheduler's events tell."""
-        address = _address(exc)
-        try:
-            events = self.client.get_events("worker-restart-memory")
-        except Exception:  # noqa: BLE001 - only to improve the message
-            events = ()
-        for _, msg in reversed(list(events)):
-            if isinstance(msg, dict) and msg.get("worker") == address:
-                rss = msg.get("rss", 0) / 2**30
-                return (
-                    f"out of memory: its worker used {rss:.2f} GiB, over its memory limit, "
-                    "and was restarted"
-                )
-        deaths = getattr(exc, "allowed_failures", 0) + 1
-        return (
-            "its worker process died while running it (an exit, a crash such as a segfault "
-            "or a C++ abort, or a kill, e.g. by the system for lack of memory); Dask's "
-            f"KilledWorker after {deaths} worker death(s), the last on {address}"
-        )
 
     # -- the hard timeout and the cluster's health -------------------------------------
 
@@ -458,37 +424,68 @@ class _Runner:
                     worker=run.worker,
                 )
             )
-            self._restart(run.worker)
-
-    def _restart(self, worker: str | None) -> None:
-        log.info("restarting worker %s (a job passed its hard timeout)", worker)
-        try:
-            self.client.restart_workers([worker], timeout=RESTART_TIMEOUT, raise_for_error=False)
-        except Exception as exc:  # noqa: BLE001 - the batch goes on
-            log.warning("could not restart worker %s: %s", worker, exc)
-
-    def _check_workers(self) -> None:
-        if not (self.pending or self.running):
-            return
-        if self._capacity() > 0:
-            self._empty_since = None
-            return
-        now = time.monotonic()
-        if self._empty_since is None:
-            self._empty_since = now
-            return
-        if now - self._empty_since < NO_WORKERS_TIMEOUT:
-            return
-        why = f"the cluster has had no worker for {NO_WORKERS_TIMEOUT:g} s"
-        for future, run in list(self.running.items()):
-            future.cancel()
-            self._record(JobResult(run.index, self.tasks[run.index].name, "failed", error=why))
-        self.running.clear()
-        while self.pending:
-            i = self.pending.popleft()
-            self._record(JobResult(i, self.tasks[i].name, "failed", error=why))
+            _restart(self.client, run.worker)
 
 
 def _address(exc: Any) -> str | None:
     worker = getattr(exc, "last_worker", None)
     return getattr(worker, "address", None)
+
+
+def _death(client: Any, exc: Any) -> str:
+    """Why a job's worker died, as far as the scheduler's events tell."""
+    address = _address(exc)
+    try:
+        events = client.get_events("worker-restart-memory")
+    except Exception:  # noqa: BLE001 - only to improve the message
+        events = ()
+    for _, msg in reversed(list(events)):
+        if isinstance(msg, dict) and msg.get("worker") == address:
+            rss = msg.get("rss", 0) / 2**30
+            return (
+                f"out of memory: its worker used {rss:.2f} GiB, over its memory limit, "
+                "and was restarted"
+            )
+    deaths = getattr(exc, "allowed_failures", 0) + 1
+    return (
+        "its worker process died while running it (an exit, a crash such as a segfault "
+        "or a C++ abort, or a kill, e.g. by the system for lack of memory); Dask's "
+        f"KilledWorker after {deaths} worker death(s), the last on {address}"
+    )
+
+
+def _restart(client: Any, worker: str | None) -> None:
+    log.info("restarting worker %s (a job passed its hard timeout)", worker)
+    try:
+        client.restart_workers([worker], timeout=RESTART_TIMEOUT, raise_for_error=False)
+    except Exception as exc:  # noqa: BLE001 - the batch goes on
+        log.warning("could not restart worker %s: %s", worker, exc)
+
+
+def _check_workers(r: _Runner) -> None:
+    """Fail every job left when the cluster has had no worker for a while."""
+    if not (r.pending or r.running):
+        return
+    if r._capacity() > 0:
+        r._empty_since = None
+        return
+    now = time.monotonic()
+    if r._empty_since is None:
+        r._empty_since = now
+        return
+    if now - r._empty_since < NO_WORKERS_TIMEOUT:
+        return
+    why = f"the cluster has had no worker for {NO_WORKERS_TIMEOUT:g} s"
+    for future, run in list(r.running.items()):
+        future.cancel()
+        r._record(JobResult(run.index, r.tasks[run.index].name, "failed", error=why))
+    r.running.clear()
+    while r.pending:
+        i = r.pending.popleft()
+        r._record(JobResult(i, r.tasks[i].name, "failed", error=why))
+
+
+def _failed(run: _Running, task: Task, error: str, worker: str | None) -> JobResult:
+    """A failed job's result, timed from its start (or its submission)."""
+    seconds = time.monotonic() - (run.started or run.submitted)
+    return JobResult(run.index, task.name, "failed", error=error, seconds=seconds, worker=worker)
