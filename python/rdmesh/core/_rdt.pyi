@@ -234,6 +234,7 @@ class VolumeSampler:
         npt.NDArray[np.float64],  # (n,) values
         npt.NDArray[np.float64] | None,  # (n, 3) gradients, if asked
     ]: ...
+    def coefficients(self) -> npt.NDArray[np.float64]: ...  # (n0, n1, n2) copy
     @property
     def degree(self) -> int: ...
     @property

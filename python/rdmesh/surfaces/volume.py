@@ -23,6 +23,7 @@ from .._errors import EmptySurfaceError
 from .._validate import choice
 from ..core import VolumeSampler
 from .oracle import ImplicitSurface
+from .trilinear import regular_isovalue
 
 log = logging.getLogger("rdmesh")
 
@@ -332,6 +333,17 @@ class VolumeSurface(ImplicitSurface):
                 f"isovalue {iso:g} is outside the range of the volume's data, "
                 f"({lo:g}, {hi:g}): there is no isosurface"
             )
+        #: The isovalue asked for; ``isovalue`` is the one meshed (linear: off saddle values).
+        self.requested_isovalue = iso
+        if interpolation == "linear":
+            iso = regular_isovalue(data, iso, inside)
+            if iso != self.requested_isovalue:
+                log.warning(
+                    "isovalue %g is a saddle value of the trilinear interpolant (its "
+                    "isosurface pinches to a point there): meshing %g instead",
+                    self.requested_isovalue,
+                    iso,
+                )
         self.isovalue = iso
         self.inside = inside
         self.interpolation = interpolation
