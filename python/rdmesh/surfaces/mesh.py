@@ -14,7 +14,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .._errors import MeshInputError
+from .._tol import REGION_LINK
 from ..core import MeshDistance
+from ..topology.regions import describe_regions, regions
 from .oracle import ImplicitSurface
 
 log = logging.getLogger("rdmesh")
@@ -302,9 +304,47 @@ class MeshSurface(ImplicitSurface):
                     100 * self.ambiguous_share,
                 )
         self._orient_normals(v, f, norms)
+        self._find_self_intersections()
         super().__init__(
             self._signed_distance, (centre, radius), gradient=self._gradient, name=name
         )
+
+    def _find_self_intersections(self) -> None:
+        """``self_intersections``: the pairs of faces that cross (CGAL's
+        Polygon_mesh_processing::self_intersections), for closed manifold inputs."""
+        self.self_intersections = self._core.self_intersections()
+        if len(self.self_intersections):
+            where = self.vertices[self.faces[self.self_intersections[:, 0]]].mean(axis=1)
+            log.warning(
+                "MeshSurface: the mesh intersects itself (%d pairs of faces cross, %s); "
+                "its topology is not that of a surface: the remesh follows the union of "
+                "what it encloses (winding number) and is marked incomplete",
+                len(self.self_intersections),
+                describe_regions(regions(where, REGION_LINK * float(np.ptp(self.vertices)))),
+            )
+
+    def input_report(self) -> dict | None:
+        """What is wrong with the input, for the mesh's report, or None.
+
+        Returns
+        -------
+        dict or None
+            ``{"self_intersections": {"pairs", "regions"}, "statement"}`` when
+            the input (a closed manifold mesh) intersects itself.
+        """
+        pairs = self.self_intersections
+        if not len(pairs):
+            return None
+        where = self.vertices[self.faces[pairs[:, 0]]].mean(axis=1)
+        found = regions(where, REGION_LINK * self.radius)
+        return {
+            "self_intersections": {"pairs": len(pairs), "regions": found},
+            "statement": (
+                f"the input mesh intersects itself ({len(pairs)} pairs of faces cross, "
+                f"{describe_regions(found)}): it bounds no solid with its topology, so the "
+                "remesh (of the union it encloses, by the winding number) cannot keep it"
+            ),
+        }
 
     def _orient_normals(self, v: np.ndarray, f: np.ndarray, norms: np.ndarray) -> None:
         """Flip the normals (used for the gradient on the mesh) of faces whose front is inside.
