@@ -51,8 +51,10 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args(argv)
-    print("| surface | components (want) | with search: s, comps, seeding, seeding s | "
-          "grid scan only: s, comps |")
+    print(
+        "| surface | components (want) | with search: s, comps, seeding, seeding s | "
+        "grid scan only: s, comps |"
+    )
     print("|---|---|---|---|")
     for name, text, sphere, want in cases():
         on_s, on = run(text, sphere, True, args.repeat)

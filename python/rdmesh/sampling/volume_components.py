@@ -131,8 +131,10 @@ def volume_components(surface: VolumeSurface) -> Discovery:
         "volume components: %d region points, %d seeds%s",
         len(reps),
         len(world),
-        "" if proven else f", {len(unresolved)} unresolved" + (", a sample at the isovalue"
-                                                               if degenerate else ""),
+        ""
+        if proven
+        else f", {len(unresolved)} unresolved"
+        + (", a sample at the isovalue" if degenerate else ""),
     )
     if degenerate:
         basis = (

@@ -281,9 +281,14 @@ class MeshSurface(ImplicitSurface):
                 self.folds,
                 FOLD_ANGLE,
             )
+        #: f is this-Lipschitz (the clamped signed distance), or None (winding sign).
+        self.lipschitz: float | None = None
+        #: The gradient is a unit vector wherever f is differentiable.
+        self.unit_gradient = False
         if self._core.has_side:
             self.sign_method = "side"
             self.ambiguous_share = 0.0
+            self.lipschitz, self.unit_gradient = 1.0, True
         else:
             self.sign_method = "winding"
             self.ambiguous_share = self._ambiguity(v, f, norms)
@@ -390,7 +395,9 @@ class MeshSurface(ImplicitSurface):
         if len(pts) == 0:
             return np.zeros(0)
         # Farther than cap + gap from every vertex means farther than cap from the mesh.
-        dv, _ = self._kdtree.query(pts, distance_upper_bound=self.cap + self._vertex_gap)
+        dv, _ = self._kdtree.query(
+            pts, distance_upper_bound=self.cap + self._vertex_gap, workers=-1
+        )
         near = np.flatnonzero(np.isfinite(dv))
         far = np.flatnonzero(~np.isfinite(dv))
         out = np.empty(len(pts))
