@@ -85,6 +85,7 @@ def test_a_closed_mesh_has_no_self_intersections():
     assert ms._core.has_pseudo_normals
     assert len(ms.self_intersections) == 0
     assert ms.input_report() is None
+    assert ms.input_report(np.zeros((0, 3))) is None
     assert ms.sign_method == "side"
 
 
@@ -106,3 +107,23 @@ def test_time_limit_message_says_what_happened():
     msg = b.exceeded(10, 290.0, 25.0, 4000)
     assert "stopped after 290.0s" in msg and "4000 points" in msg and "25.0s" in msg
     assert "after 301.0s" in b.exceeded(10, 301.0)
+
+
+def test_sheet_gap_measures_the_thinnest_part():
+    # A slab 0.02 thick (a flat box of 12 triangles): the gap is its thickness.
+    corners = np.array(
+        [[x, y, z] for x in (-0.8, 0.8) for y in (-0.8, 0.8) for z in (-0.01, 0.01)]
+    )
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    faces = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    ms = rdmesh.MeshSurface((corners, faces))
+    assert ms.sign_method == "side"
+    pts = np.array([[0.0, 0.0, 0.01], [0.3, -0.2, -0.01]])
+    gap = ms.sheet_gap(pts)
+    assert np.allclose(gap, 0.02, atol=0.002)
+    rep = ms.input_report(pts)
+    assert rep["close_sheets"]["points"] == 2 and not rep["incomplete"]
+    assert "nearly touch" in rep["statement"]
+    # Away from thin parts the gap is the cap, 2 x CLOSE_SHEETS x R, and nothing is said.
+    ball = rdmesh.MeshSurface(sphere_mesh((0, 0, 0), 1.0))
+    assert ball.input_report(np.array([[1.0, 0.0, 0.0]])) is None

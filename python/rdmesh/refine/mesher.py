@@ -351,15 +351,15 @@ def _result(
         mesh.complete = False
         mesh.stats["stop_reason"] = "interrupted during the report"
         raise Interrupted("interrupted during the report", mesh=mesh, reason="interrupted")
-    problems = getattr(m.surface, "input_report", lambda: None)()
+    problems = getattr(m.surface, "input_report", lambda _: None)(mesh.unresolved)
     if problems is not None and mesh.report is not None:
-        # The input itself rules out the topology the mesh should keep (issue 30).
+        # What in the input stands in the way of its topology (issue 30).
         mesh.report["input"] = problems
         mesh.report["statement"] += " The input: " + problems["statement"] + "."
     if stop:
         mesh.complete = False
         mesh.stats["stop_reason"] = stop
-    elif problems is not None:
+    elif problems is not None and problems["incomplete"]:
         mesh.complete = False
         mesh.stats["stop_reason"] = problems["statement"]
     elif len(mesh.unresolved):

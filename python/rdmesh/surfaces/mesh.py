@@ -48,6 +48,10 @@ DISTANCE_CAP = 0.1
 #: Two faces sharing an edge whose normals differ by more than this (degrees)
 #: form a fold: a razor-thin wedge with no feature size (logged as a warning).
 FOLD_ANGLE = 150.0
+#: Two sheets closer than this (times R) where points were refused are reported.
+CLOSE_SHEETS = 0.02
+#: Probes along the normal that measure the gap between sheets.
+GAP_SAMPLES = 64
 #: Points evaluated per call of the C++ core (bounds the temporary arrays).
 _CHUNK = 1 << 18
 
@@ -328,28 +332,76 @@ class MeshSurface(ImplicitSurface):
                 describe_regions(regions(where, REGION_LINK * float(np.ptp(self.vertices)))),
             )
 
-    def input_report(self) -> dict | None:
-        """What is wrong with the input, for the mesh's report, or None.
+    def input_report(self, unresolved: np.ndarray | None = None) -> dict | None:
+        """What in the input stands in the way of its topology, for the mesh's report.
+
+        Parameters
+        ----------
+        unresolved : (k, 3) array, optional
+            The run's refused refinement points: where two sheets of the
+            input are closer than refinement can separate, the gap is
+            measured there.
 
         Returns
         -------
         dict or None
-            ``{"self_intersections": {"pairs", "regions"}, "statement"}`` when
-            the input (a closed manifold mesh) intersects itself.
+            ``self_intersections`` (``pairs``, ``regions``) when the input
+            intersects itself, ``close_sheets`` (``gap``, ``regions``) when
+            refused points lie where two sheets of the input nearly touch,
+            ``incomplete`` (the input alone rules out its topology) and a
+            ``statement``; None when there is nothing to say.
         """
+        out: dict = {"incomplete": False}
+        said = []
         pairs = self.self_intersections
-        if not len(pairs):
-            return None
-        where = self.vertices[self.faces[pairs[:, 0]]].mean(axis=1)
-        found = regions(where, REGION_LINK * self.radius)
-        return {
-            "self_intersections": {"pairs": len(pairs), "regions": found},
-            "statement": (
+        if len(pairs):
+            where = self.vertices[self.faces[pairs[:, 0]]].mean(axis=1)
+            found = regions(where, REGION_LINK * self.radius)
+            out["self_intersections"] = {"pairs": len(pairs), "regions": found}
+            out["incomplete"] = True
+            said.append(
                 f"the input mesh intersects itself ({len(pairs)} pairs of faces cross, "
                 f"{describe_regions(found)}): it bounds no solid with its topology, so the "
                 "remesh (of the union it encloses, by the winding number) cannot keep it"
-            ),
-        }
+            )
+        if unresolved is not None and len(unresolved):
+            gap = self.sheet_gap(unresolved)
+            close = gap < CLOSE_SHEETS * self.radius
+            if close.any():
+                found = regions(unresolved[close], REGION_LINK * self.radius)
+                out["close_sheets"] = {
+                    "points": int(close.sum()),
+                    "gap": float(np.median(gap[close])),
+                    "regions": found,
+                }
+                said.append(
+                    f"two sheets of the input nearly touch where {int(close.sum())} refinement "
+                    f"points were refused (median gap {np.median(gap[close]):.3g}, "
+                    f"{describe_regions(found)}): closer than the spacing floor lets "
+                    "refinement separate them"
+                )
+        if not said:
+            return None
+        out["statement"] = "; ".join(said)
+        return out
+
+    def sheet_gap(self, points: np.ndarray) -> np.ndarray:
+        """Distance across the thinnest part (inside or outside) of the input at
+        points on it, ``(k,)``: twice the distance from the point to the
+        medial axis along the closest face's normal, sampled up to
+        ``CLOSE_SHEETS * R`` (that value where it is farther)."""
+        closest, face = self.closest_points(points)
+        n = self._normals[face]
+        t = np.linspace(0.0, CLOSE_SHEETS * self.radius, GAP_SAMPLES + 1)[1:]
+        gaps = []
+        for sign in (1.0, -1.0):
+            probe = closest[None] + sign * t[:, None, None] * n[None]
+            d = np.abs(self.signed_distance(probe.reshape(-1, 3))).reshape(len(t), -1)
+            # Beyond the medial axis the distance falls below the probe's offset.
+            behind = d < t[:, None] * (1 - 1e-6)
+            first = np.where(behind.any(axis=0), np.argmax(behind, axis=0), len(t) - 1)
+            gaps.append(2.0 * t[first])
+        return np.minimum(*gaps)
 
     def _orient_normals(self, v: np.ndarray, f: np.ndarray, norms: np.ndarray) -> None:
         """Flip the normals (used for the gradient on the mesh) of faces whose front is inside.
