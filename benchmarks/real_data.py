@@ -23,6 +23,7 @@ fraction of the diagonal), evaluations per vertex, whether the run is
 complete, the seeding's level::
 
     python benchmarks/real_data.py [--quick] [--out results/real-data-DATE.json]
+        [--only remesh|volume] [--cases bone,genus-2] [--sizes 0.01,0.003]
 
 ``--quick`` runs the 1 % size only and leaves out the grey-matter map.
 Needs ``pymeshlab``, ``nilearn`` and ``scikit-image`` (``pip install
@@ -233,11 +234,13 @@ def run_pymeshlab(v, f, r: float):
     return m.vertex_matrix().copy(), m.face_matrix().astype(np.int64), sec
 
 
-def remesh_rows(sizes: tuple[float, ...]) -> list[dict]:
+def remesh_rows(sizes: tuple[float, ...], cases: str | None = None) -> list[dict]:
     import rdmesh
 
     rows = []
     for name, data in mesh_inputs().items():
+        if cases and not any(c in name for c in cases.split(",")):
+            continue
         if isinstance(data, str):
             rows.append({"kind": "remesh", "case": name, "note": data})
             continue
@@ -254,7 +257,8 @@ def remesh_rows(sizes: tuple[float, ...]) -> list[dict]:
             m = run.pop("mesh")
             rows.append({
                 **base, "mesher": "rdmesh", "vertices": len(m.vertices),
-                **topology(m.vertices, m.faces), "min_angle": round(min_angle(m.vertices, m.faces), 1),
+                **topology(m.vertices, m.faces),
+                "min_angle": round(min_angle(m.vertices, m.faces), 1),
                 "hausdorff_diag": round(hausdorff(m.vertices, m.faces, ref) / diag, 5),
                 "seconds": round(run.pop("seconds"), 2), **run,
             })  # fmt: skip
@@ -288,12 +292,14 @@ def _reference(surface, factor: int = 2) -> dict:
     return topology(v, f)
 
 
-def volume_rows(quick: bool) -> list[dict]:
+def volume_rows(quick: bool, cases: str | None = None) -> list[dict]:
     import rdmesh
     from skimage import measure
 
     rows = []
     for name, vol in volume_inputs(quick).items():
+        if cases and not any(c in name for c in cases.split(",")):
+            continue
         if isinstance(vol, str):
             rows.append({"kind": "volume", "case": name, "note": vol})
             continue
@@ -317,7 +323,8 @@ def volume_rows(quick: bool) -> list[dict]:
             rows.append({
                 "kind": "volume", "case": name, "mesher": f"rdmesh {interp}",
                 "isovalue": s.isovalue, "reference": ref, "vertices": len(m.vertices),
-                **topology(m.vertices, m.faces), "min_angle": round(min_angle(m.vertices, m.faces), 1),
+                **topology(m.vertices, m.faces),
+                "min_angle": round(min_angle(m.vertices, m.faces), 1),
                 "seconds": round(sec, 2), "complete": m.complete,
                 "seeding": m.report["seeding"]["level"],
                 "evals_per_vertex": round(m.stats["evaluations"] / max(len(m.vertices), 1), 1),
@@ -345,7 +352,8 @@ def table(rows: list[dict]) -> str:
         lines.append(
             f"| {r['case']} | {r.get('size', '1 voxel')} | {r['mesher']} | {r['vertices']} | "
             f"{r['seconds']} | {r['components']} | {euler}{want} | {r['closed']} | "
-            f"{r['min_angle']} | {r.get('hausdorff_diag', '')} | {r.get('evals_per_vertex', '')} | "
+            f"{r['min_angle']} | {r.get('hausdorff_diag', '')} | "
+            f"{r.get('evals_per_vertex', '')} | "
             f"{str(r.get('note', ''))[:90]} |"
         )
     return "\n".join(lines)
@@ -356,13 +364,17 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--out", default=None)
     ap.add_argument("--only", choices=("remesh", "volume"), default=None)
+    ap.add_argument("--cases", default=None, help="comma-separated parts of case names")
+    ap.add_argument("--sizes", default=None, help="comma-separated fractions of the diagonal")
     args = ap.parse_args(argv)
     sizes = (0.01,) if args.quick else (0.01, 0.003)
+    if args.sizes:
+        sizes = tuple(float(x) for x in args.sizes.split(","))
     rows = []
     if args.only != "volume":
-        rows += remesh_rows(sizes)
+        rows += remesh_rows(sizes, args.cases)
     if args.only != "remesh":
-        rows += volume_rows(args.quick)
+        rows += volume_rows(args.quick, args.cases)
     commit = subprocess.run(
         ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=HERE
     ).stdout.strip()
