@@ -91,8 +91,11 @@ def mesh_surface(
         round, per inserted point) to end past the limit is not started.
     seed_resolution : int, default 64
         Cells across the bounding ball of the grid scan that finds the
-        components; components narrower than about 1.7 cells may be missed (for
-        expression surfaces an interval subdivision searches for them too).
+        components; components narrower than about 1.7 cells may be missed.
+        Expression surfaces (an interval subdivision) and closed volumes (a
+        search on the interpolant) also get a proven search that seeds every
+        component, with either method and with or without ``certify``; the
+        report's ``seeding`` then says ``proven``.
     progress : bool or callable, default False
         True shows a progress bar on stderr; a callable receives a dict
         (``round``, ``stage``, ``inserted``, ``vertices``, ``seconds``) after

@@ -181,6 +181,18 @@ class MeshSurface(ImplicitSurface):
     folds : int
         Edges whose two faces' normals differ by more than 150 degrees
         (razor-thin wedges; see Notes). Nonzero counts are logged as a warning.
+    self_intersections : (k, 2) int64
+        Pairs of faces that cross, for a closed manifold input that
+        intersects itself (CGAL's ``self_intersections``); empty otherwise.
+        A run on such an input returns its mesh with ``complete=False`` and
+        ``report["input"]`` naming where (:meth:`input_report`).
+    lipschitz : float or None
+        1 when ``f`` is the clamped signed distance (closed input), so the
+        seeding grid skips the nodes whose sign a coarser grid decides;
+        None with the winding-number sign.
+    unit_gradient : bool
+        The gradient is a unit vector wherever ``f`` is differentiable
+        (closed input): the report's singular-point search is skipped.
 
     Raises
     ------
@@ -209,8 +221,13 @@ class MeshSurface(ImplicitSurface):
 
     - *Closed* meshes (every edge in two faces, consistently oriented,
       combinatorially manifold, no face of zero area, not self-intersecting):
-      CGAL's ``Side_of_triangle_mesh`` (ray casting with exact predicates).
-      Inward-oriented meshes (negative volume) are flipped first.
+      the sign of ``(p - c) . n`` at the closest point ``c``, with ``n`` the
+      angle-weighted pseudo-normal of the face, edge or vertex ``c`` lies on
+      (exact for such meshes: Baerentzen and Aanaes 2005); CGAL's
+      ``Side_of_triangle_mesh`` (ray casting with exact predicates) where
+      that product is too close to 0, for far points, and for every point if
+      a face's normal points into the solid. Inward-oriented meshes
+      (negative volume) are flipped first.
     - *Everything else*: the generalized winding number ``w`` (Jacobson et
       al. 2013; far clusters by their dipole, Barill et al. 2018, within a
       few percent), ``f = clip(4 (1 - 2w), -1, 1) * distance``. Away from

@@ -247,6 +247,13 @@ class VolumeSurface(ImplicitSurface):
     Attributes
     ----------
     isovalue : float
+        The level meshed: the one asked for, except with linear interpolation
+        where it is a saddle value of the trilinear interpolant (its
+        isosurface pinches there); it is then moved off every saddle value,
+        by at most 1 % of the data range, towards a smaller inside, and a
+        warning is logged (:mod:`rdmesh.surfaces.trilinear`).
+    requested_isovalue : float
+        The isovalue asked for (or the default).
     value_scale : float
         The median data slope (value per unit length) across the isosurface
         along the grid edges; ``f`` is divided by it, so near the surface ``f``
