@@ -171,9 +171,10 @@ class Mesher:
         phases = Phases(plan.phases, floor, place)
         cap = self.budget.max_vertices
         # A round's cost (insert, update, stages, select) grows with the points
-        # it inserts: the next round is predicted from the run's average cost
-        # per point (one round's is unstable: a test round that inserts a few
-        # points costs much per point), and at least as long as the last round.
+        # it inserts: the next round is predicted from the loop's cost per point
+        # inserted or present (one round's is unstable: a test round that inserts
+        # a few points into a large mesh costs much per point), and at least as
+        # long as the last round.
         cycle_start, loop_start, done = t0, time.perf_counter(), 0
         while stop is None:
             self.rounds += 1
@@ -194,7 +195,7 @@ class Mesher:
             with self.timer("select"):
                 batch = found.centres[core.select_independent(found.centres, found.radii)]
             now = time.perf_counter()
-            per_point = (now - loop_start) / max(done, 1)
+            per_point = (now - loop_start) / max(done, len(self.vertices), 1)
             predicted = max(now - cycle_start, per_point * len(batch)) if done else 0.0
             stop = self.budget.exceeded(len(self.vertices), now - t0, predicted, len(batch))
             if stop:
