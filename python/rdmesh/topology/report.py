@@ -323,12 +323,17 @@ def _seeding(discovery: Discovery | None, link: float) -> dict[str, Any]:
             "basis": "a grid scan (and critical points of a height function): components "
             "smaller than about two grid cells can be missed",
         }
+    basis = discovery.basis
+    if basis is None:
+        basis = (
+            "interval subdivision (Snyder's box condition): a seed on every component"
+            if discovery.proven
+            else "interval subdivision left boxes or edges unresolved there: components may "
+            "be missed there"
+        )
     return {
         "level": "proven" if discovery.proven else "sampled",
-        "basis": "interval subdivision (Snyder's box condition): a seed on every component"
-        if discovery.proven
-        else "interval subdivision left boxes or edges unresolved there: components may "
-        "be missed there",
+        "basis": basis,
         "seeds": len(discovery.points),
         "boxes": discovery.boxes,
         "smallest_box": float(discovery.side),
