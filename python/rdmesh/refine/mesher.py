@@ -30,7 +30,7 @@ from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
-from ..topology.regions import describe_regions, regions
+from .._regions import describe_regions, regions
 from .check import check_restricted
 from .criteria import FacetCriteria
 from .floor import SpacingFloor

@@ -17,7 +17,7 @@ from .._errors import MeshInputError
 from .._tol import REGION_LINK
 from ..core import MeshDistance
 from ..features.sharp_edges import sharp_curves
-from ..topology.regions import describe_regions, regions
+from .._regions import describe_regions, regions
 from .oracle import ImplicitSurface
 
 log = logging.getLogger("rdmesh")

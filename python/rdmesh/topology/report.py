@@ -58,7 +58,7 @@ from ..sampling.critical import CriticalPoints
 from ..sampling.discovery import Discovery
 from ..sampling.probes import Probes
 from .complex import component_topology
-from .regions import describe_regions, regions
+from .._regions import describe_regions, regions
 from .singular import singular_points
 from .snapshot import Snapshot
 from .tests import TESTS, Violations
