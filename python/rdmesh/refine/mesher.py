@@ -20,6 +20,7 @@ import numpy as np
 
 from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
+from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
 from ..features.check import check_features, repair_sites
 from ..io.result import SurfaceMesh
@@ -30,7 +31,6 @@ from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
-from .._regions import describe_regions, regions
 from .check import check_restricted
 from .criteria import FacetCriteria
 from .floor import SpacingFloor
@@ -381,7 +381,7 @@ def _result(
                 boundary=plan.boundary if m.clipped else None,
                 quick=bool(stop and stop.startswith("time_limit")),
             )
-        mesh.report["features"] = None if mesh.features is None else mesh.features.as_report()
+        mesh.report["features"] = _features_report(mesh, plan)
     except KeyboardInterrupt:
         # The mesh is whole; only the report is missing.
         report_interrupted = True
@@ -424,6 +424,9 @@ def _result(
     if stop:
         mesh.complete = False
         mesh.stats["stop_reason"] = stop
+    elif plan.features_abandoned:
+        mesh.complete = False
+        mesh.stats["stop_reason"] = "feature curves not protected: " + plan.features_abandoned
     elif mesh.features is not None and not mesh.features.held:
         mesh.complete = False
         f = mesh.features
@@ -442,3 +445,13 @@ def _result(
             "violations without a refinement point)"
         )
     return mesh
+
+
+def _features_report(mesh: SurfaceMesh, plan: Plan) -> dict | None:
+    """``report["features"]``: the check's outcome, or why the curves rdmesh
+    found were left unprotected (their creases then cut by triangles)."""
+    if mesh.features is not None:
+        return mesh.features.as_report()
+    if plan.features_abandoned:
+        return {"held": False, "abandoned": plan.features_abandoned, "balls": 0}
+    return None
