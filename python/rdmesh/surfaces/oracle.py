@@ -170,7 +170,7 @@ class ImplicitSurface:
 
     def grad(self, points: np.ndarray) -> np.ndarray:
         """Gradient of ``f`` at ``(N, 3)`` points, analytic or by finite differences."""
-        return _gradient(self, points)
+        return _evaluate_gradient(self, points)
 
 
 def _checked_fields(
@@ -261,7 +261,7 @@ def _evaluate(surface: ImplicitSurface, pts: np.ndarray) -> np.ndarray:
     return values
 
 
-def _gradient(surface: ImplicitSurface, points: np.ndarray) -> np.ndarray:
+def _evaluate_gradient(surface: ImplicitSurface, points: np.ndarray) -> np.ndarray:
     """``surface.grad(points)``: the given gradient, counted and checked, or central
     differences of ``f`` with step ``GRADIENT_STEP * radius``; ``(N, 3)``.
 
