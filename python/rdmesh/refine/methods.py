@@ -23,7 +23,6 @@ from scipy.spatial import cKDTree
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
 from ..features import Balls, FeatureGraph, protect
-from .feature_curves import check_on_surface, feature_graph
 from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
 from ..sampling.components import find_components
 from ..sampling.critical import CriticalPoints, critical_points
@@ -35,6 +34,7 @@ from ..surfaces.oracle import ImplicitSurface
 from ..surfaces.volume import VolumeSurface
 from ..topology.tests import CELL_NORMAL_ANGLE, PROBE_TARGET, TESTS
 from .criteria import FacetCriteria, Sizing
+from .feature_curves import check_on_surface, feature_graph
 from .stages import FacetStage, Stage, TestStage
 
 log = logging.getLogger("rdmesh")
