@@ -76,6 +76,18 @@ def test_curves_meeting_at_small_angles_get_disjoint_balls(angle):
     check_invariants(b)
 
 
+@pytest.mark.parametrize("h", [0.2, 0.15, 0.11])
+def test_corners_near_42_degrees_are_protected(h):
+    # Around 41-46 degrees the first ball out of the corner used to start a
+    # dense step too far out, overlap the corner ball by less than the lens,
+    # and each repair repeated the layout at a smaller scale down to the floor.
+    o = np.zeros(3)
+    for angle in np.r_[np.arange(38.0, 48.0, 0.2), 41.75]:
+        a = np.radians(angle)
+        g = graph_of([np.array([o, [1.0, 0, 0]]), np.array([o, [np.cos(a), np.sin(a), 0]])])
+        check_invariants(protect(g, lambda x: np.full(len(x), h), 2.0))
+
+
 def test_a_circle_is_one_closed_chain():
     t = np.linspace(0, 2 * np.pi, 200)
     circle = np.c_[np.cos(t), np.sin(t), np.zeros_like(t)]

@@ -521,16 +521,20 @@ def _open_positions(d: _Dense, h: np.ndarray, ca, ra: float, cb, rb: float) -> n
     corner's ball to where it enters the last one's, the first and last a
     quarter spacing beyond those points (so they overlap the corner balls),
     spaced about ``h`` in between."""
-    out_a = np.flatnonzero(row_norms(d.x - ca) >= ra)
-    out_b = np.flatnonzero(row_norms(d.x - cb) >= rb)
+    dist_a, dist_b = row_norms(d.x - ca), row_norms(d.x - cb)
+    out_a = np.flatnonzero(dist_a >= ra)
+    out_b = np.flatnonzero(dist_b >= rb)
     if not len(out_a) or not len(out_b):
         return np.zeros(0)
     i0, i1 = out_a[0], out_b[-1]
     if i0 >= i1:
         return np.zeros(0)  # the corner balls cover the curve: they must overlap
-    s0, s1 = d.s[i0], d.s[i1]
-    first = s0 + 0.25 * h[i0]
-    last = s1 - 0.25 * h[i1]
+    # Where the curve leaves the balls, between dense points: the dense step
+    # can exceed the spacing next to a corner (curves at a small angle).
+    s0 = _crossing(d.s, dist_a, ra, i0, -1)
+    s1 = _crossing(d.s, dist_b, rb, i1, 1)
+    first = s0 + 0.25 * np.interp(s0, d.s, h)
+    last = s1 - 0.25 * np.interp(s1, d.s, h)
     if last <= first:
         return np.array([0.5 * (s0 + s1)])
     keep = (d.s > first) & (d.s < last)
@@ -540,6 +544,16 @@ def _open_positions(d: _Dense, h: np.ndarray, ca, ra: float, cb, rb: float) -> n
     steps = np.r_[0.0, np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(s_))]
     n = max(1, int(np.ceil(steps[-1])))
     return np.interp(np.arange(n + 1) * steps[-1] / n, steps, s_)
+
+
+def _crossing(s: np.ndarray, dist: np.ndarray, r: float, i: int, side: int) -> float:
+    """The arc where ``dist`` (at arcs ``s``) crosses ``r`` between dense
+    point ``i`` (outside) and its neighbour ``i + side`` (inside)."""
+    j = i + side
+    if j < 0 or j >= len(s) or dist[j] >= r:
+        return float(s[i])
+    t = (r - dist[j]) / max(dist[i] - dist[j], 1e-300)
+    return float(s[j] + np.clip(t, 0.0, 1.0) * (s[i] - s[j]))
 
 
 def _corner_curve_gap(corners, ends, tree, all_x, all_c) -> np.ndarray:
