@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 
 from ._validate import box_in_sphere, choice, integer, positive
+from .features.sources import search_creases
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria, Sizing
 from .refine.mesher import Budget, Mesher
@@ -12,6 +14,8 @@ from .refine.methods import METHODS, TOPOLOGIES
 from .surfaces.expressions import Expression
 from .surfaces.oracle import ImplicitSurface
 from .surfaces.volume import VolumeSurface
+
+log = logging.getLogger("rdmesh")
 
 
 def mesh_surface(
@@ -181,9 +185,7 @@ def mesh_surface(
             f"{topology!r} is only for 'boissonnat-oudot' (surfaces that leave the "
             "bounding sphere are not supported by 'topological-ball')"
         )
-    if radius_bound is None and method == "boissonnat-oudot":
-        radius_bound = surface.radius / 20.0
-    criteria = FacetCriteria(angle_bound, radius_bound, distance_bound)
+    criteria = FacetCriteria(angle_bound, radius_bound, distance_bound)  # checked first
     if max_vertices is not None:
         max_vertices = integer("max_vertices", max_vertices, lo=1)
     if time_limit is not None:
@@ -219,9 +221,20 @@ def mesh_surface(
         )
     if edge_size is not None and not callable(edge_size):
         edge_size = positive("edge_size", edge_size)
-    budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
     if progress is not True and progress is not False and not callable(progress):
         raise ValueError(f"progress must be True, False or a callable, got {progress!r}")
+    creases = search_creases(surface, topology, seed, seed_resolution)
+    if creases is not None and creases.curves and (method != "boissonnat-oudot" or certify):
+        creases.note = (
+            f"{len(creases.curves)} creases found: meshed by 'boissonnat-oudot' with the creases "
+            f"protected instead of {method!r}{' with certify' if certify else ''} (the "
+            "topological-ball tests and the proofs assume a smooth surface); not certified"
+        )
+        log.warning("%s", creases.note)
+        method, certify = "boissonnat-oudot", False
+    if radius_bound is None and method == "boissonnat-oudot":
+        criteria = FacetCriteria(angle_bound, surface.radius / 20.0, distance_bound)
+    budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
     mesher = Mesher(
         surface,
         criteria,
@@ -234,6 +247,7 @@ def mesh_surface(
         workers=workers,
         certify=bool(certify),
         edge_size=edge_size,
+        creases=creases,
     )
     if progress is True:
         from .progress import ProgressBar

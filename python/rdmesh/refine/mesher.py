@@ -22,6 +22,7 @@ from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._tol import REGION_LINK
 from ..features.check import check_features, repair_sites
+from ..features.expression_creases import CreaseSearch
 from ..io.result import SurfaceMesh
 from ..sampling.boundary import BoundaryCurve, guard_boundary
 from ..sampling.domain import clip_box
@@ -92,9 +93,9 @@ class Mesher:
         workers: int = 1,
         certify: bool = False,
         edge_size: float | Callable[[np.ndarray], np.ndarray] | None = None,
+        creases: CreaseSearch | None = None,
     ) -> None:
-        self.surface = surface
-        self.edge_size = edge_size
+        self.surface, self.edge_size, self.creases = surface, edge_size, creases
         self.criteria = criteria
         self.method = method
         self.topology = topology
@@ -107,9 +108,8 @@ class Mesher:
         self.timer = PhaseTimer()
         #: The surface may leave the ball; the mesh is the part inside.
         self.clipped = topology == "manifold-with-boundary"
-        self.rounds = 0
-        #: Times the feature check failed and the run began again with smaller balls.
-        self.repairs = 0
+        #: Rounds, and times the feature check failed and the run began again with smaller balls.
+        self.rounds = self.repairs = 0
         self._fresh()
         #: Debug mode: check the bookkeeping every round (small runs only).
         self.check = os.environ.get("RDMESH_CHECK", "") not in ("", "0")
@@ -160,7 +160,7 @@ class Mesher:
         with self.timer("seeding"):
             plan = METHODS[self.method](
                 self.surface, self.criteria, self.topology, rng, self.seed_resolution,
-                self.certify, edge_size=self.edge_size, shrink=shrink,
+                self.certify, edge_size=self.edge_size, shrink=shrink, creases=self.creases,
             )  # fmt: skip
         self.plan = plan
         seeds, stop = plan.seeds, None
@@ -344,6 +344,8 @@ def _result(
             plan.balls, plan.features, m.ball_ids, ids, mesh.faces, len(mesh.vertices)
         )
         mesh.features.repairs = m.repairs
+        if m.creases is not None:
+            mesh.features.unresolved = m.creases.unresolved
     report_interrupted = False
     try:
         with m.timer("report"):
@@ -365,6 +367,8 @@ def _result(
                 quick=bool(stop and stop.startswith("time_limit")),
             )
         mesh.report["features"] = None if mesh.features is None else mesh.features.as_report()
+        if m.creases is not None:
+            mesh.report["creases"] = m.creases.as_report()
     except KeyboardInterrupt:
         # The mesh is whole; only the report is missing.
         report_interrupted = True

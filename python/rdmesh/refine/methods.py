@@ -23,6 +23,7 @@ from scipy.spatial import cKDTree
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
 from ..features import Balls, FeatureGraph, protect
+from ..features.expression_creases import CreaseSearch
 from ..features.sources import check_on_surface, feature_graph
 from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
 from ..sampling.critical import CriticalPoints, critical_points
@@ -82,6 +83,7 @@ def boissonnat_oudot(
     certify: bool = False,
     edge_size: float | Sizing | None = None,
     shrink: list | None = None,
+    creases: CreaseSearch | None = None,
 ) -> Plan:
     """Seeds from the grid scan (and, to certify, from the interval subdivision);
     stages as CGAL's Surface_mesher with its manifold tags.
@@ -89,7 +91,8 @@ def boissonnat_oudot(
     With ``topology="manifold-with-boundary"`` the surface may leave the ball
     (or the surface's clip box): the curve where it meets the sphere (the box
     faces) is traced first (:mod:`rdmesh.sampling.boundary`). Feature curves
-    (that curve, given ones, a closed volume's box) get protecting balls
+    (that curve, given ones, a closed volume's box, the ``creases`` found in
+    an expression or CSG tree) get protecting balls
     (:mod:`rdmesh.features`), inserted before the seeds; with
     ``features="none"`` the boundary curve's samples are the first seeds
     instead, and refinement points near it are moved onto it.
@@ -112,7 +115,7 @@ def boissonnat_oudot(
     if protecting:
         graph = feature_graph(
             surface, boundary=boundary if clipped else None,
-            volume_curve=_volume_box_curve(surface, criteria, resolution),
+            volume_curve=_volume_box_curve(surface, criteria, resolution), creases=creases,
         )  # fmt: skip
         if not graph.empty:
             check_on_surface(surface, graph.curves)
@@ -192,12 +195,14 @@ def topological_ball(
     certify: bool = False,
     edge_size: float | Sizing | None = None,
     shrink: list | None = None,
+    creases: CreaseSearch | None = None,
 ) -> Plan:
     """Seeds from the grid scan (to certify, from the interval subdivision
     instead) plus the critical points of a random height; the
     topological-ball tests, then the criteria while keeping them. Feature
     curves are not protected (the tests assume a smooth surface;
-    :func:`rdmesh.mesh_surface` refuses given curves with this method)."""
+    :func:`rdmesh.mesh_surface` refuses given curves with this method, and
+    meshes a surface with creases found by Boissonnat-Oudot instead)."""
     R = surface.radius
     bound = criteria.radius_bound
     spacing = bound if isinstance(bound, float) else None
