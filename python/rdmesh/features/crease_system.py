@@ -16,66 +16,69 @@ from .tracing import newton_project
 
 
 class CreaseSystem:
-    """The equations of creases: for curve ``c``, the piece ``F`` (every node
-    held on ``forced[c]``, node ``node[c]`` on its first branch) and that
-    node's switch; a point's event is the first other node that reaches
-    ``f`` and would take another branch there (-1 for none).
+    """The equations of creases. Crease ``c`` separates two pieces: every
+    decision node held on ``forced[c]`` (side A), and the same with the
+    nodes of ``delta[c]`` on their other branch (side B: those nodes switch
+    together across the crease). Its equations are side A's piece ``F`` and
+    the switch ``s`` of ``node[c]``, the first node of ``delta[c]``. A
+    point's event is the first node outside ``delta[c]`` that reaches ``f``
+    (on either side) and would take another branch there (-1 for none).
 
     Parameters
     ----------
     model : PieceModel
-    forced : (C, D) int8 the branches of each curve's piece (-1: free).
-    node : (C,) int64 each curve's switching node.
+    forced : (C, D) int8 each crease's side-A branches (-1: free).
+    node : (C,) int64 each crease's switching node.
+    delta : (C, D) bool the nodes that switch across each crease.
     """
 
-    def __init__(self, model: PieceModel, forced: np.ndarray, node: np.ndarray) -> None:
+    def __init__(
+        self, model: PieceModel, forced: np.ndarray, node: np.ndarray, delta: np.ndarray
+    ) -> None:
         self.model = model
         self.forced = np.asarray(forced, np.int8).reshape(-1, model.size)
         self.node = np.asarray(node, np.int64)
+        self.delta = np.asarray(delta, bool).reshape(-1, model.size)
 
     def __call__(self, x: np.ndarray, curve: np.ndarray):
-        r, k = self._evaluate(x, curve)
+        r = self.model.evaluate(x, self.forced[curve])
+        k = self.node[curve]
         rows = np.arange(len(x))
         g = np.column_stack([r.value, r.switch[rows, k]])
         J = np.stack([r.grad, r.switch_grad[rows, k]], axis=1)
-        return g, J, self._event(r, k)
+        return g, J, self.event(r, curve)
 
-    def _evaluate(self, x: np.ndarray, curve: np.ndarray):
-        k = self.node[curve]
-        forced = self.forced[curve].copy()
-        forced[np.arange(len(x)), k] = 0
-        return self.model.evaluate(x, forced), k
-
-    def _event(self, r, k: np.ndarray) -> np.ndarray:
-        """The first node other than ``k`` that reaches ``f`` (with either
-        branch of ``k``) and takes another branch on its own, or -1."""
+    def event(self, r, curve: np.ndarray) -> np.ndarray:
+        """The first node outside the crease's switching nodes that reaches
+        ``f`` (on either side of the crease) and takes another branch on its
+        own, or -1; ``r`` is the model's evaluation with side A forced."""
         n, d = r.choice.shape
+        delta = self.delta[curve]
         reach = np.ones((n, d), bool)
         for j, path in enumerate(self.model.above):
             for m, branch in path:
-                reach[:, j] &= (r.choice[:, m] == branch) | (k == m)
-        flip = reach & (r.natural != r.choice)
-        flip[np.arange(n), k] = False
+                reach[:, j] &= (r.choice[:, m] == branch) | delta[:, m]
+        flip = reach & (r.natural != r.choice) & ~delta
         return np.where(flip.any(axis=1), np.argmax(flip, axis=1), -1)
 
-    def pieces_sine(self, x: np.ndarray, curve: np.ndarray) -> np.ndarray:
-        """The sine of the angle between the two pieces' gradients at points
-        on curves (the crease's sharpness; 0 for a smooth join)."""
-        k = self.node[curve]
-        rows = np.arange(len(x))
-        grads = []
-        for branch in (0, 1):
-            forced = self.forced[curve].copy()
-            forced[rows, k] = branch
-            grads.append(self.model.evaluate(x, forced).grad)
-        a, b = grads
-        cross = row_norms(np.cross(a, b))
-        return cross / np.maximum(row_norms(a) * row_norms(b), 1e-300)
+    def sides(self, curve: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The branches of side A and of side B of each crease, ``(m, D)`` each."""
+        a = self.forced[curve]
+        return a, np.where(self.delta[curve], 1 - a, a).astype(np.int8)
+
+    def pieces_angle(self, x: np.ndarray, curve: np.ndarray) -> np.ndarray:
+        """The angle in degrees between the two pieces' gradients at points on
+        curves: near 0 for a smooth join, near 180 where two sheets touch, in
+        between for a crease (its sharpness)."""
+        a, b = (self.model.evaluate(x, side).grad for side in self.sides(curve))
+        sine = row_norms(np.cross(a, b))
+        cosine = np.einsum("ij,ij->i", a, b)
+        return np.degrees(np.arctan2(sine, cosine))
 
     def corner_system(self, x: np.ndarray, curve: np.ndarray, other: np.ndarray):
         """Residuals ``(m, 3)`` and Jacobians ``(m, 3, 3)`` of the piece and
         both switches (the crease's node and ``other``)."""
-        r, k = self._evaluate(x, curve)
+        r, k = self.model.evaluate(x, self.forced[curve]), self.node[curve]
         rows = np.arange(len(x))
         g = np.column_stack([r.value, r.switch[rows, k], r.switch[rows, other]])
         J = np.stack([r.grad, r.switch_grad[rows, k], r.switch_grad[rows, other]], axis=1)

@@ -67,6 +67,9 @@ log = logging.getLogger("rdmesh")
 MIN_ANGLE = 1.0
 #: A piece and a switch with gradients closer to parallel (sine) touch: not traced.
 TOUCH = 1e-6
+#: Pieces whose gradients are opposite to within this many degrees are two
+#: sheets that touch (a pinch), not a crease nor a smooth join.
+TOUCH_ANGLE = 0.1
 #: Residual tolerance of the corrector while tracing, times R.
 TRACE_TOL = 1e-10
 #: Residual tolerance of the exact projection onto a crease, times R.
@@ -75,6 +78,8 @@ PROJECT_TOL = 1e-14
 MIN_STEP = 1e-7
 #: Largest tracing step, times the seeding grid's spacing.
 STEP = 0.5
+#: Labels of a crease's two sides are taken this far off it, times R.
+SIDE = 1e-7
 #: Tracing rounds at most (each traces one seed of every crease not yet found).
 MAX_ROUNDS = 64
 
@@ -103,8 +108,10 @@ class CreaseSearch:
         Each crease from corner to corner (or closed), with an exact
         projection onto ``{F = 0, s = 0}``.
     unresolved : (k, 3) float64
-        Centres of boxes where a crease could be neither excluded nor found
-        (tangential contact, a trace that was lost, a box at the floor).
+        Places where a crease could be neither excluded nor found (boxes at
+        the floor size, e.g. where two sheets touch, or a trace that was
+        lost): one point per region (the mean of the places within a grid
+        cell of each other).
     boxes : dict
         Boxes of the interval search by outcome: "excluded" (proven to hold
         no crease), "traced" (a traced crease passes through), "smooth"
@@ -199,7 +206,7 @@ def find_creases(
         level = "intervals"
     out = CreaseSearch(
         curves=search.feature_curves(),
-        unresolved=search.unresolved_points(),
+        unresolved=_regions(search.unresolved_points(), scan.spacing),
         boxes=boxes,
         seeds=search.n_seeds,
         level=level,
@@ -260,6 +267,7 @@ class _Search:
         self.h_max = STEP * spacing
         self.keys: dict[bytes, int] = {}
         self.forced = np.zeros((0, model.size), np.int8)
+        self.delta = np.zeros((0, model.size), bool)
         self.node = np.zeros(0, np.int64)
         # Seeds: point and crease (index into forced / node).
         self.seed_x = np.zeros((0, 3))
@@ -271,20 +279,23 @@ class _Search:
 
     @property
     def system(self) -> CreaseSystem:
-        return CreaseSystem(self.model, self.forced, self.node)
+        return CreaseSystem(self.model, self.forced, self.node, self.delta)
 
-    def crease_of(self, key: np.ndarray, node: np.ndarray) -> np.ndarray:
-        """The crease index of each (forced branches, node) pair, new ones added."""
+    def crease_of(self, key: np.ndarray, node: np.ndarray, delta: np.ndarray) -> np.ndarray:
+        """The crease index of each (side-A branches, node, switching nodes),
+        new ones added."""
         if not len(node):
             return np.zeros(0, np.int64)
-        rows = np.column_stack([key.astype(np.int64), node])
+        rows = np.column_stack([key.astype(np.int64), delta.astype(np.int64), node])
         uniq, inverse = np.unique(rows, axis=0, return_inverse=True)
         index = np.empty(len(uniq), np.int64)
+        d = self.model.size
         for u, row in enumerate(uniq):  # one per crease, not per seed
             b = row.tobytes()
             if b not in self.keys:
                 self.keys[b] = len(self.node)
-                self.forced = np.r_[self.forced, row[None, :-1].astype(np.int8)]
+                self.forced = np.r_[self.forced, row[None, :d].astype(np.int8)]
+                self.delta = np.r_[self.delta, row[None, d : 2 * d].astype(bool)]
                 self.node = np.r_[self.node, row[-1]]
             index[u] = self.keys[b]
         return index[inverse.reshape(-1)]
@@ -304,28 +315,57 @@ class _Search:
     def classify(
         self, x: np.ndarray, key: np.ndarray, node: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Project points onto the creases ``(key, node)`` near them.
+        """Project points onto the creases of nodes ``node`` near them (side A
+        branches ``key``) and keep the crease points as seeds.
 
         Returns the projected points and an outcome per point: :data:`CREASE`
         (a crease point, kept as a seed), :data:`SMOOTH` (a tie where the
         pieces' gradients are parallel) or :data:`NOTHING` (Newton failed, or
-        went more than two grid cells, or the pieces touch there)."""
-        c = self.crease_of(key, node)
+        went more than two grid cells, or two sheets touch there)."""
+        rows = np.arange(len(x))
+        delta = np.zeros(key.shape, bool)
+        delta[rows, node] = True
+        c = self.crease_of(key, node, delta)
+        y, ok, _ = newton_project(self.system, x, c, TRACE_TOL * self.R)
+        ok &= row_norms(y - x) <= 2.0 * self.spacing
+        # The branches on both sides of the switch surface at the point: the
+        # nodes that switch together there, and the crease they make.
+        c, ok = self._canonical(y, c, ok)
         system = self.system
-        y, ok, sine = newton_project(system, x, c, TRACE_TOL * self.R)
-        r, k = system._evaluate(y, c)
-        rows = np.arange(len(y))
-        ok &= (row_norms(y - x) <= 2.0 * self.spacing) & (sine >= TOUCH) & r.reachable[rows, k]
-        ok &= system._event(r, k) < 0
-        sharp = np.zeros(len(y), bool)
+        y, done, sine = newton_project(system, y, c, TRACE_TOL * self.R)
+        r = self.model.evaluate(y, system.forced[c])
+        ok &= done & (sine >= TOUCH) & r.reachable[rows, system.node[c]]
+        ok &= system.event(r, c) < 0
+        angle = np.zeros(len(y))
         if ok.any():
-            sharp[ok] = system.pieces_sine(y[ok], c[ok]) >= np.sin(np.radians(MIN_ANGLE))
-        out = np.where(ok, np.where(sharp, CREASE, SMOOTH), NOTHING)
+            angle[ok] = system.pieces_angle(y[ok], c[ok])
+        ok &= angle <= 180.0 - TOUCH_ANGLE
+        out = np.where(ok, np.where(angle >= MIN_ANGLE, CREASE, SMOOTH), NOTHING)
         keep = out == CREASE
         self.seed_x = np.r_[self.seed_x, y[keep]]
         self.seed_c = np.r_[self.seed_c, c[keep]]
         self.n_seeds += int(keep.sum())
         return y, out
+
+    def _canonical(self, y: np.ndarray, c: np.ndarray, ok: np.ndarray):
+        """The crease through points ``y`` found on the switch of ``node[c]``:
+        the labels just off the switch surface on each side, the nodes
+        reachable on both sides whose branches differ (they switch together),
+        side A the one where the first of them takes its first branch."""
+        node = self.node[c]
+        r = self.model.evaluate(y)
+        rows = np.arange(len(y))
+        n = r.switch_grad[rows, node]
+        n /= np.maximum(row_norms(n), 1e-300)[:, None]
+        step = SIDE * self.R * n
+        la, lb = self.model.evaluate(y - step).label, self.model.evaluate(y + step).label
+        delta = (la >= 0) & (lb >= 0) & (la != lb)
+        ok = ok & delta[rows, node]
+        k = np.argmax(delta, axis=1)
+        swap = la[rows, k] == 1
+        la, lb = np.where(swap[:, None], lb, la), np.where(swap[:, None], la, lb)
+        key = np.where(la >= 0, la, lb).astype(np.int8)
+        return self.crease_of(key, k, delta), ok
 
     def run(self) -> None:
         """Trace one seed of every crease with seeds left, until none is left."""
@@ -396,6 +436,28 @@ class _Search:
 
     def unresolved_points(self) -> np.ndarray:
         return np.concatenate(self.lost) if self.lost else np.zeros((0, 3))
+
+
+def _regions(points: np.ndarray, link: float) -> np.ndarray:
+    """One point per cluster of ``points`` (chains of points closer than
+    ``link`` to one of their 8 nearest), the mean of each, in order of first
+    appearance; memory linear in the points."""
+    n = len(points)
+    if n < 2:
+        return points
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    d, j = cKDTree(points).query(points, k=min(9, n), distance_upper_bound=link)
+    i = np.repeat(np.arange(n), d.shape[1])
+    near = np.isfinite(d.ravel())
+    g = coo_matrix((np.ones(int(near.sum())), (i[near], j.ravel()[near])), shape=(n, n))
+    _, label = connected_components(g, directed=False)
+    _, first, label = np.unique(label, return_index=True, return_inverse=True)
+    order = np.argsort(np.argsort(first))
+    label = order[label.reshape(-1)]
+    count = np.bincount(label)
+    return np.stack([np.bincount(label, weights=points[:, a]) / count for a in range(3)], 1)
 
 
 def _untraced(x: np.ndarray, crease: np.ndarray, traced: list, tol: float) -> np.ndarray:

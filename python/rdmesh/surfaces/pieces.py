@@ -107,8 +107,8 @@ def _binary(node: Node) -> Node:
         for arg in new[1:]:
             out = Nary(node.name, [out, arg])
         return out
-    if all(a is b for a, b in zip(new, kids, strict=True)):
-        return node
+    # Always a new node: a sub-tree used twice (a CSG operand in a smooth
+    # minimum) gets decision nodes of its own in each place.
     return _rebuild(node, new)
 
 
