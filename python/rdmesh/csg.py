@@ -105,15 +105,20 @@ def intersection(
 
 
 def difference(
-    a: ImplicitSurface, b: ImplicitSurface, *, name: str | None = None
+    a: ImplicitSurface,
+    b: ImplicitSurface,
+    *,
+    name: str | None = None,
+    bounding_sphere: tuple | None = None,
 ) -> ImplicitSurface:
     """``a`` minus ``b``: ``max(f_a, -f_b)``.
 
     Parameters and errors as :func:`union`, with exactly two operands; the
-    bounding sphere is ``a``'s.
+    bounding sphere is by default ``a``'s.
     """
     ops = _operands((a, b), "difference")
-    return _make("difference", ops, ops[0].bounding_sphere, name or _name("difference", ops))
+    sphere = bounding_sphere or ops[0].bounding_sphere
+    return _make("difference", ops, sphere, name or _name("difference", ops))
 
 
 def smooth_union(
@@ -251,6 +256,7 @@ def _leaf(s: ImplicitSurface) -> Node:
 
 
 def _smooth_min_text(a: str, b: str, k: float) -> str:
+    k = float(k)
     return f"min({a}, {b}) - max({k!r} - abs({a} - {b}), 0)**2/(4*{k!r})"
 
 

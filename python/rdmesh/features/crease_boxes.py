@@ -15,9 +15,9 @@ Here an octree of boxes over the bounding ball settles every place:
   of them; otherwise Gauss-Newton from the box centre looks for a crease of
   that node (a new one is traced, and the box rechecked) or a tie with
   parallel gradients there (*smooth*: a smooth join, sampled).
-- Boxes still unsettled are split in eight, down to
-  :data:`FLOOR` ``x R``; what remains
-  there is *unresolved* (reported, with its place).
+- Boxes still unsettled are split in eight, down to :data:`FLOOR` ``x R``
+  (and while a level has at most :data:`MAX_BOXES`); what remains there is
+  *unresolved* (reported, with its place).
 
 So every crease point lies in a box that is excluded by proof, holds a traced
 crease of the same node (or lies within one box of one), is a sampled smooth
@@ -39,6 +39,9 @@ from ..surfaces.ir import Sum
 START = 4
 #: Unsettled boxes are split down to this size, times R, then reported.
 FLOOR = 1e-4
+#: Boxes per level at most: past it the boxes left are reported unresolved
+#: (a surface whose bounds settle nothing must not take the machine's memory).
+MAX_BOXES = 200_000
 #: Outcomes of projecting a point onto a crease (``_Search.classify``): Newton
 #: failed (or went too far, or the pieces touch), a crease point, a tie where
 #: the pieces' gradients are parallel (a smooth join).
@@ -110,7 +113,7 @@ def settle(expr, search) -> dict:
         keep = cand.any(axis=1)
         counts["excluded"] += int((~keep).sum())
         lo, cand = lo[keep], cand[keep]
-        if size <= leaf or not len(lo):
+        if size <= leaf or not len(lo) or 8 * len(lo) > MAX_BOXES:
             break
         lo, size = _split(lo, size)
     # At the leaf size and below: traced, smooth, or split again.
@@ -129,7 +132,7 @@ def settle(expr, search) -> dict:
         lo = lo[~done]
         if not len(lo):
             break
-        if size / 2 < floor:
+        if size / 2 < floor or 8 * len(lo) > MAX_BOXES:
             counts["unresolved"] += len(lo)
             search.lost.append(lo + 0.5 * size)
             break
