@@ -15,8 +15,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from meshcheck import assert_good_mesh, euler_per_component
 from rdmesh.features import FeatureError
-from rdmesh.features.expression_creases import find_creases, piece_model
+from rdmesh.features.expression_creases import piece_model
 from rdmesh.features.graph import build_graph
+from rdmesh.refine.feature_curves import find_creases
 from rdmesh.surfaces import SURFACES
 from rdmesh.surfaces.builtin import BUILTIN_EXPRESSIONS
 from rdmesh.surfaces.expressions import parse_expression

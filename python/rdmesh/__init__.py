@@ -21,6 +21,7 @@ from ._errors import (
     StoppedEarly,
 )
 from .api import mesh_surface
+from .batch import Job, JobResult, mesh_many
 from .core import CGAL_VERSION
 from .features import FeatureError, MeshFeatures
 from .io.result import SurfaceMesh
@@ -45,6 +46,8 @@ __all__ = [
     "ImplicitSurface",
     "InternalCheckError",
     "Interrupted",
+    "Job",
+    "JobResult",
     "MeshFeatures",
     "MeshInputError",
     "MeshSurface",
@@ -55,6 +58,7 @@ __all__ = [
     "SurfaceMesh",
     "VolumeSurface",
     "csg",
+    "mesh_many",
     "mesh_surface",
     "surfaces",
 ]

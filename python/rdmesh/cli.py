@@ -1,4 +1,4 @@
-"""The ``rdmesh`` command line: ``mesh``, ``remesh``, ``demo`` and ``list``.
+"""The ``rdmesh`` command line: ``mesh``, ``remesh``, ``batch``, ``demo`` and ``list``.
 
 ``rdmesh mesh SURFACE -o OUT`` meshes a built-in surface (``rdmesh list``) or
 an expression in x, y and z (``"x**2 + y**2 + z**2 - 1"``, with ``--bound R``
@@ -6,8 +6,10 @@ or ``--sphere cx,cy,cz,R``), optionally clipped to a box (``--clip-box X0 Y0 Z0
 X1 Y1 Z1``: the part inside it, with a boundary on its faces), and writes the
 mesh in the format its extension names, and with ``--png`` a picture.
 ``rdmesh remesh IN -o OUT`` remeshes a triangle mesh file
-(:class:`rdmesh.MeshSurface`). ``rdmesh demo`` meshes a built-in surface and
-writes the mesh and a picture.
+(:class:`rdmesh.MeshSurface`). ``rdmesh batch JOBS.jsonl --out DIR`` meshes
+the jobs of a JSONL file in parallel on a Dask cluster (:mod:`rdmesh.batch`),
+writing ``DIR/<name>.ply`` and ``DIR/manifest.jsonl``; a second run resumes.
+``rdmesh demo`` meshes a built-in surface and writes the mesh and a picture.
 
 Output: the summary goes to stdout; the progress bar (runs over a second),
 log messages and errors go to stderr. ``--quiet`` keeps stderr silent unless
@@ -19,7 +21,8 @@ Exit status
     Success.
 1
     A budget (``--max-vertices``, ``--time-limit``) stopped refinement; the
-    partial mesh was written and stderr says so.
+    partial mesh was written and stderr says so. ``batch``: some job stopped
+    or failed, or a line of the jobs file is bad (the others ran).
 2
     Bad input: unknown surface, bad expression, bad option, unwritable output,
     a surface function that fails. One line on stderr, no traceback.
@@ -33,28 +36,34 @@ This is the only module of rdmesh that prints.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import math
 import os
 import sys
 
 from . import __version__, core
+from ._cli_surfaces import (  # noqa: F401 - used by the tests and the batch jobs
+    _VOLUME_OPTIONS,
+    _CliError,
+    _features,
+    _is_volume,
+    _mesh_file_surface,
+    _one_line,
+    _surface,
+    _volume_surface,
+)
 from ._errors import Interrupted, RdmeshError, StoppedEarly
 from .api import METHODS, mesh_surface
 from .io.result import MESH_FORMATS, SurfaceMesh
 from .refine.methods import TOPOLOGIES
 from .surfaces import SURFACES, get
 from .surfaces.builtin import BUILTIN_EXPRESSIONS
-from .surfaces.expressions import CONSTANTS, VARIABLES, parse_expression
 from .surfaces.oracle import ImplicitSurface
 
 EXIT_OK, EXIT_BUDGET, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 log = logging.getLogger("rdmesh")
-
-
-class _CliError(Exception):
-    """A usage error: reported in one line, exit status 2."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -220,6 +229,7 @@ def _parser() -> argparse.ArgumentParser:
 
     sub.add_parser("list", help="list the built-in surfaces")
     _add_remesh_parser(sub)
+    _add_batch_parser(sub)
     return p
 
 
@@ -296,19 +306,6 @@ def _add_run_options(p: argparse.ArgumentParser, method: bool) -> None:
     )
 
 
-def _features(args):
-    """The surface's ``features=`` from ``--features``/``--no-features``."""
-    if args.no_features:
-        return "none"
-    if args.features is None:
-        return None
-    from .features.polyline_file import read_polylines
-
-    if not os.path.isfile(args.features):
-        raise _CliError(f"cannot read {args.features!r}: no such file")
-    return read_polylines(args.features)
-
-
 def _run_options(args) -> dict:
     """``mesh_surface``'s keyword arguments from :func:`_add_run_options`' options."""
     out = dict(
@@ -379,22 +376,220 @@ def _feature_angle(text: str) -> float | str | None:
 
 
 def _remesh(args) -> int:
-    import trimesh
-
-    from .surfaces.mesh import MeshSurface
-
-    path = args.input
-    if not os.path.isfile(path):
-        raise _CliError(f"cannot read {path!r}: no such file")
-    try:
-        loaded = trimesh.load(path, force="mesh")
-    except Exception as exc:  # noqa: BLE001 - trimesh's loaders raise many types
-        raise _CliError(f"cannot read {path!r} as a mesh: {_one_line(exc)}") from None
-    surface = MeshSurface(
-        loaded, name=os.path.basename(path), feature_angle=args.feature_angle,
-        features=_features(args),
-    )  # fmt: skip
+    surface = _mesh_file_surface(args.input, args.feature_angle, _features(args))
     return _run(args, surface, **_run_options(args))
+
+
+# -- batch: a JSONL file of jobs on a Dask cluster -------------------------------------
+
+_BATCH_EPILOG = (
+    "exit status: 0 every job ok; 1 some job stopped or failed, or a line is bad (the "
+    "others ran); 2 bad usage (no jobs file, unwritable folder, no cluster); 130 "
+    "interrupted (the manifest holds the jobs that ended; run again to resume)"
+)
+
+
+def _timeout(text: str) -> float | str | None:
+    if text.strip().lower() in ("none", "off"):
+        return None
+    if text.strip().lower() == "auto":
+        return "auto"
+    return _positive_float(text)
+
+
+def _add_batch_parser(sub) -> None:
+    """``rdmesh batch JOBS.jsonl --out DIR``: many jobs in parallel on Dask."""
+    b = sub.add_parser(
+        "batch",
+        help="mesh the jobs of a JSONL file in parallel (Dask), resumable",
+        description=(
+            "Mesh every job of JOBS.jsonl, one JSON object a line: 'name', one of "
+            "'expression' (with 'bound' or 'sphere'), 'surface' (a built-in name) or 'input' "
+            "(a mesh file, or a .npy volume with the volume options), and any of "
+            "angle_bound radius_bound distance_bound method topology time_limit max_vertices "
+            "seed (clip_box, and isovalue spacing origin inside interpolation border for "
+            "volumes, as 'rdmesh mesh' takes them). Relative input paths are from the jobs "
+            "file's folder. Each job makes the mesh of the single 'rdmesh mesh' or 'rdmesh "
+            "remesh', and writes DIR/<name>.ply; DIR/manifest.jsonl gets one record per job "
+            "as it ends. A second run skips the jobs the manifest holds as ok or stopped "
+            "(unchanged, with their mesh in place) and runs the failed ones again. Needs "
+            "Dask: pip install 'rdmesh[dask]'."
+        ),
+        epilog=_BATCH_EPILOG,
+    )
+    b.add_argument("jobs", metavar="JOBS.jsonl", help="the jobs, one JSON object a line")
+    b.add_argument("--out", required=True, metavar="DIR", help="folder of the meshes and manifest")
+    where = b.add_mutually_exclusive_group()
+    where.add_argument(
+        "--workers",
+        type=_positive_int,
+        metavar="N",
+        help="worker processes of the local cluster (default: one per core)",
+    )
+    where.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on an existing Dask cluster (tcp://host:8786); its workers need rdmesh and "
+        "must reach the input files and DIR at the same paths",
+    )
+    b.add_argument(
+        "--memory-limit",
+        metavar="SIZE",
+        help="memory of each local worker, e.g. 4GiB (default: the machine's memory / N); a "
+        "job that goes over fails with 'out of memory'",
+    )
+    b.add_argument(
+        "--hard-timeout",
+        type=_timeout,
+        default="auto",
+        metavar="SECONDS",
+        help="end a job that has not answered after this long, restarting its worker "
+        "(default auto: 2 x its time_limit + 30 s, none without time_limit; 'none': never)",
+    )
+    b.add_argument(
+        "--retry-stopped",
+        action="store_true",
+        help="run again the jobs that the manifest holds as stopped by a budget",
+    )
+    b.add_argument(
+        "--progress",
+        action="store_true",
+        help="show the progress bar even when stderr is not a terminal",
+    )
+    b.add_argument(
+        "--quiet", "-q", action="store_true", help="no progress bar, only errors on stderr"
+    )
+    b.add_argument("--verbose", "-v", action="store_true", help="log more on stderr")
+    b.set_defaults(run=_batch)
+
+
+def _batch(args) -> int:
+    from .batch.jobfile import read_jobs
+    from .batch.manifest import FolderBusy, Manifest
+
+    if args.memory_limit is not None and args.scheduler is not None:
+        raise _CliError("--memory-limit applies to the local cluster, not with --scheduler")
+    if args.memory_limit is not None:
+        _check_memory_limit(args.memory_limit)
+    if not os.path.isfile(args.jobs):
+        raise _CliError(f"cannot read {args.jobs!r}: no such file")
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise _CliError(f"--out {args.out!r} is a file, not a folder")
+    try:
+        lines, errors = read_jobs(args.jobs)
+    except UnicodeDecodeError as exc:
+        raise _CliError(f"cannot read {args.jobs!r}: not UTF-8 text ({exc.reason})") from None
+    for error in errors:
+        print(f"rdmesh: {args.jobs}:{error.line}: {error.message}", file=sys.stderr)
+    # Dask logs its start and each worker it restarts through its own handlers (which
+    # mesh_many quiets for a local cluster); the jobs' outcomes are reported here.
+    dask_log = logging.getLogger("distributed")
+    propagate = dask_log.propagate
+    dask_log.propagate = bool(args.verbose)
+    try:
+        with Manifest(args.out) as manifest:
+            counts, skipped = _batch_run(args, manifest, lines)
+    except FolderBusy as exc:
+        raise _CliError(str(exc)) from None
+    finally:
+        dask_log.propagate = propagate
+    bad = f", {len(errors)} bad lines" if errors else ""
+    print(
+        f"rdmesh batch: {len(lines) + len(errors)} jobs: {counts['ok']} ok, "
+        f"{counts['stopped']} stopped, {counts['failed']} failed{bad} ({skipped} done "
+        f"before, skipped); manifest {manifest.path}"
+    )
+    clean = counts["stopped"] == counts["failed"] == 0 and not errors
+    return EXIT_OK if clean else EXIT_BUDGET
+
+
+def _batch_run(args, manifest, lines) -> tuple[dict[str, int], int]:
+    """Run the jobs the manifest does not hold as done; returns the counts of each
+    status (the skipped jobs' included) and the number skipped."""
+    from tqdm import tqdm
+
+    from .batch import mesh_many
+    from .batch.bar import JobBar
+    from .batch.manifest import record
+
+    counts = dict.fromkeys(("ok", "stopped", "failed"), 0)
+    todo = []
+    for line in lines:
+        if manifest.done(line, retry_stopped=args.retry_stopped):
+            counts[manifest.records[line.name]["status"]] += 1
+        else:
+            todo.append(line)
+    skipped = len(lines) - len(todo)
+    if skipped:
+        log.warning("%d of %d jobs are in %s as done; skipped", skipped, len(lines), manifest.path)
+    outputs = [os.path.join(args.out, f"{line.name}.ply") for line in todo]
+    for path in outputs:  # a job that runs again replaces its old mesh, or leaves none
+        if os.path.exists(path):
+            os.unlink(path)
+
+    def on_result(result) -> None:
+        line = todo[result.index]
+        if result.output is not None and not os.path.isfile(result.output):
+            result.status, result.output = "failed", None
+            result.error = (
+                f"the worker {result.worker} wrote the mesh, but it is not in {args.out!r} "
+                "here: with --scheduler, --out must be a folder the workers share"
+            )
+        manifest.append(record(result, line, args.out))
+        counts[result.status] += 1
+        bar.update(result)
+        if result.status != "ok":
+            tqdm.write(
+                f"rdmesh: {line.name} (line {line.line}) {result.status}: {result.error}",
+                file=sys.stderr,
+            )
+
+    show = args.progress or (sys.stderr.isatty() and not args.quiet)
+    with JobBar(len(lines), initial=skipped, disable=not show) as bar:
+        if todo:
+            with _batch_client(args.scheduler) as client:
+                mesh_many(
+                    [line.job(path) for line, path in zip(todo, outputs, strict=True)],
+                    client=client,
+                    n_workers=args.workers,
+                    memory_limit="auto" if args.memory_limit is None else args.memory_limit,
+                    hard_timeout=args.hard_timeout,
+                    on_result=on_result,
+                )
+    return counts, skipped
+
+
+def _check_memory_limit(text: str) -> None:
+    try:
+        from dask.utils import parse_bytes
+    except ImportError:
+        raise _CliError("rdmesh batch needs Dask: pip install 'rdmesh[dask]'") from None
+    if text.strip().lower() == "auto":
+        return
+    try:
+        size = parse_bytes(text)
+    except (ValueError, TypeError):
+        size = 0
+    if size <= 0:
+        raise _CliError(f"--memory-limit must be a size such as 4GiB or 500MB, got {text!r}")
+
+
+@contextlib.contextmanager
+def _batch_client(address: str | None):
+    """A client of the cluster at ``address`` (closed afterwards), or None: a local one."""
+    if address is None:
+        yield None
+        return
+    try:
+        from distributed import Client
+    except ImportError:
+        raise _CliError("rdmesh batch needs Dask: pip install 'rdmesh[dask]'") from None
+    try:
+        client = Client(address, timeout=30)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise _CliError(f"cannot reach the Dask scheduler {address!r}: {_one_line(exc)}") from None
+    with client:
+        yield client
 
 
 # -- running --------------------------------------------------------------------------
@@ -421,62 +616,7 @@ def _check_writable(path: str, picture: bool = False) -> None:
         raise _CliError(f"cannot write to folder {folder!r}: permission denied")
 
 
-#: With ``--clip-box`` and no sphere, the box's circumscribed sphere enlarged by this.
-_CLIP_SPHERE_MARGIN = 1.1
-
-
-def _surface(args) -> ImplicitSurface:
-    """The built-in surface, the expression or the volume (.npy) named by SURFACE,
-    clipped to ``--clip-box`` if given."""
-    text = args.surface.strip()
-    if _is_volume(args):
-        return _volume_surface(args)
-    sphere = args.sphere
-    if args.bound is not None:
-        sphere = ((0.0, 0.0, 0.0), args.bound)
-    box = None
-    if args.clip_box is not None:
-        lo, hi = args.clip_box[:3], args.clip_box[3:]
-        flat = [axis for axis, a, b in zip("xyz", lo, hi, strict=True) if not a < b]
-        if flat:
-            raise _CliError(
-                f"--clip-box X0 Y0 Z0 X1 Y1 Z1 needs X0 < X1, Y0 < Y1 and Z0 < Z1; not on "
-                f"{', '.join(flat)}"
-            )
-        box = (lo, hi)
-        if sphere is None:
-            # The box's circumscribed sphere, a little enlarged.
-            centre = tuple(0.5 * (a + b) for a, b in zip(lo, hi, strict=True))
-            half = 0.5 * math.dist(lo, hi)
-            sphere = (centre, _CLIP_SPHERE_MARGIN * half)
-    key = text.lower().replace("-", "_").replace(" ", "_")
-    if key in SURFACES:
-        surface = SURFACES[key].make()
-        if sphere is None and box is None and not args.features and not args.no_features:
-            return surface
-        return ImplicitSurface(
-            surface.f, sphere or surface.bounding_sphere, gradient=surface.gradient,
-            name=surface.name, clip_box=box, features=_features(args),
-        )  # fmt: skip
-    if text.isidentifier() and text not in VARIABLES and text not in CONSTANTS:
-        raise _CliError(
-            f"unknown surface {args.surface!r}: built-in surfaces are {', '.join(SURFACES)}; "
-            "or give an expression in x, y and z with --bound or --sphere"
-        )
-    parse_expression(text)  # report a bad expression before a missing sphere
-    if sphere is None:
-        raise _CliError(
-            f"the expression {text!r} needs a bounding sphere: give --bound R or "
-            "--sphere cx,cy,cz,R (or --clip-box)"
-        )
-    return ImplicitSurface.from_expression(
-        text, bounding_sphere=sphere, clip_box=box, features=_features(args)
-    )
-
-
 # -- volumes: ``rdmesh mesh volume.npy --isovalue V [--spacing SX SY SZ] ...`` --------
-
-_VOLUME_OPTIONS = ("isovalue", "spacing", "origin", "inside", "interpolation", "border")
 
 
 def _add_volume_options(p: argparse.ArgumentParser) -> None:
@@ -518,42 +658,6 @@ def _add_volume_options(p: argparse.ArgumentParser) -> None:
         help="closed (default): closed by the box faces, watertight; clipped: cut at the box "
         "faces, a mesh with a boundary (topology manifold-with-boundary)",
     )
-
-
-def _is_volume(args) -> bool:
-    """True if SURFACE names a .npy file; volume options need one."""
-    if args.surface.strip().lower().endswith(".npy"):
-        return True
-    given = [o for o in _VOLUME_OPTIONS if getattr(args, o, None) is not None]
-    if given:
-        raise _CliError(f"--{given[0]} applies only to volumes: give SURFACE as a .npy file")
-    return False
-
-
-def _volume_surface(args) -> ImplicitSurface:
-    """The isosurface of the volume in the .npy file SURFACE (closed by its box, or
-    clipped to it with ``--border clipped``)."""
-    import numpy as np
-
-    from .surfaces.volume import VolumeSurface
-
-    path = args.surface.strip()
-    if args.bound is not None or args.sphere is not None:
-        raise _CliError("--bound and --sphere do not apply to a volume: its box bounds it")
-    if args.clip_box is not None:
-        raise _CliError(
-            "--clip-box does not apply to a volume: use --border clipped to clip it to its box"
-        )
-    try:
-        volume = np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise _CliError(f"no such volume file: {path!r}") from None
-    except ValueError as exc:
-        raise _CliError(f"cannot read the volume {path!r}: {exc}") from None
-    if not isinstance(volume, np.ndarray):
-        raise _CliError(f"{path!r} holds several arrays; save one 3-D array with numpy.save")
-    opts = {k: getattr(args, k) for k in _VOLUME_OPTIONS if getattr(args, k) is not None}
-    return VolumeSurface(volume, name=os.path.basename(path), features=_features(args), **opts)
 
 
 def _write(mesh: SurfaceMesh, args, title: str) -> str:
@@ -605,10 +709,6 @@ def _list() -> int:
             f"Euler characteristic {info.euler})"
         )
     return EXIT_OK
-
-
-def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 def _during_interrupt(exc: BaseException) -> bool:

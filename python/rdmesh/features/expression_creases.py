@@ -51,9 +51,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._errors import BoundingSphereError, EmptySurfaceError
 from .._vectors import row_norms
-from ..sampling.grid import grid_scan
 from ..surfaces.expressions import Expression
 from ..surfaces.pieces import PieceModel, PiecewiseFunction
 from .crease_boxes import CREASE, NOTHING, SMOOTH, settle
@@ -153,26 +151,30 @@ class CreaseSearch:
         }
 
 
-def find_creases(
+def creases_from_crossings(
     surface: Any,
+    crossings: np.ndarray,
+    spacing: float,
     *,
-    seed: int = 0,
-    resolution: int = 64,
     intervals: bool = True,
+    t0: float | None = None,
 ) -> CreaseSearch | None:
     """The creases and corners of a surface built from ``min``, ``max`` and
-    ``abs`` (an expression, or a tree made by :mod:`rdmesh.csg`).
+    ``abs`` (an expression, or a tree made by :mod:`rdmesh.csg`), seeded
+    from the crossings of a grid
+    (:func:`rdmesh.refine.feature_curves.find_creases` scans the mesher's).
 
     Parameters
     ----------
     surface : ImplicitSurface
-    seed : int
-        Seed of the grid's rotation (the mesher's own, so that the crossings
-        are the same).
-    resolution : int
-        Cells of the seeding grid across the bounding ball.
+    crossings : (n, 3) float64
+        Points on the surface where the grid's edges cross it.
+    spacing : float
+        The grid's cell size.
     intervals : bool
         Settle the rest by interval arithmetic (expressions only).
+    t0 : float, optional
+        ``time.perf_counter()`` when the search began (the scan included).
 
     Returns
     -------
@@ -185,19 +187,14 @@ def find_creases(
         The expression uses ``sign``, ``floor`` or ``ceil`` (not piecewise
         smooth).
     """
+    t0 = time.perf_counter() if t0 is None else t0
     model = piece_model(surface)
     if model is None:
         return None
     refuse_steps(model, getattr(surface, "name", "the surface"))
-    t0 = time.perf_counter()
     R = surface.radius
-    try:
-        scan = grid_scan(surface, np.random.default_rng(seed), resolution)
-    except (BoundingSphereError, EmptySurfaceError):
-        # The mesher's own scan raises the same error.
-        return CreaseSearch(seconds=time.perf_counter() - t0)
-    search = _Search(model, surface.centre, R, scan.spacing)
-    search.add_seeds(*crossing_seeds(model, scan.crossings, scan.spacing))
+    search = _Search(model, surface.centre, R, spacing)
+    search.add_seeds(*crossing_seeds(model, crossings, spacing))
     search.run()
     boxes: dict = {}
     level = "sampled"
@@ -206,7 +203,7 @@ def find_creases(
         level = "intervals"
     out = CreaseSearch(
         curves=search.feature_curves(),
-        unresolved=_regions(search.unresolved_points(), scan.spacing),
+        unresolved=_regions(search.unresolved_points(), spacing),
         boxes=boxes,
         seeds=search.n_seeds,
         level=level,
@@ -508,4 +505,10 @@ def _near_polyline(points: np.ndarray, line: np.ndarray, tol: float) -> np.ndarr
     return out
 
 
-__all__ = ["CreaseSearch", "crossing_seeds", "find_creases", "piece_model", "refuse_steps"]
+__all__ = [
+    "CreaseSearch",
+    "creases_from_crossings",
+    "crossing_seeds",
+    "piece_model",
+    "refuse_steps",
+]

@@ -85,19 +85,7 @@ class SurfaceMesh:
         """The mesh of restricted facets ``tri`` (sample ids, oriented) with their
         surface centres: only the samples they use, renumbered; deterministic
         order (each face starts at its smallest index, faces sorted)."""
-        used, faces = np.unique(tri, return_inverse=True)
-        faces = faces.reshape(-1, 3).astype(np.int64)
-        shift = np.argmin(faces, axis=1)
-        faces = faces[np.arange(len(faces))[:, None], (shift[:, None] + np.arange(3)) % 3]
-        order = np.lexsort(faces.T[::-1])
-        mesh = cls(
-            vertices=samples[used],
-            faces=faces[order],
-            facet_centres=centres[order],
-            unresolved=unresolved,
-        )
-        mesh.stats.update(vertices=len(used), faces=len(faces))
-        return mesh
+        return _from_facets(cls, samples, tri, centres, unresolved)
 
     @property
     def topology_certified(self) -> bool:
@@ -116,11 +104,7 @@ class SurfaceMesh:
     @property
     def ball_radii(self) -> np.ndarray:
         """Radius of each face's surface Delaunay ball (power radius), ``(M,)``."""
-        d = self.facet_centres - self.vertices[self.faces[:, 0]]
-        r2 = np.einsum("ij,ij->i", d, d)
-        if self.weights is not None:
-            r2 = np.maximum(r2 - self.weights[self.faces[:, 0]], 0.0)
-        return np.sqrt(r2)
+        return _ball_radii(self)
 
     @property
     def angles(self) -> np.ndarray:
@@ -185,6 +169,32 @@ class SurfaceMesh:
     def summary(self) -> str:
         """A few lines: size, angles, topology, time."""
         return _summary(self)
+
+
+def _from_facets(cls, samples, tri, centres, unresolved) -> SurfaceMesh:
+    """:meth:`SurfaceMesh.from_facets`."""
+    used, faces = np.unique(tri, return_inverse=True)
+    faces = faces.reshape(-1, 3).astype(np.int64)
+    shift = np.argmin(faces, axis=1)
+    faces = faces[np.arange(len(faces))[:, None], (shift[:, None] + np.arange(3)) % 3]
+    order = np.lexsort(faces.T[::-1])
+    mesh = cls(
+        vertices=samples[used],
+        faces=faces[order],
+        facet_centres=centres[order],
+        unresolved=unresolved,
+    )
+    mesh.stats.update(vertices=len(used), faces=len(faces))
+    return mesh
+
+
+def _ball_radii(mesh: SurfaceMesh) -> np.ndarray:
+    """:attr:`SurfaceMesh.ball_radii`."""
+    d = mesh.facet_centres - mesh.vertices[mesh.faces[:, 0]]
+    r2 = np.einsum("ij,ij->i", d, d)
+    if mesh.weights is not None:
+        r2 = np.maximum(r2 - mesh.weights[mesh.faces[:, 0]], 0.0)
+    return np.sqrt(r2)
 
 
 def _topology(mesh: SurfaceMesh) -> dict[str, Any]:

@@ -20,6 +20,7 @@ import numpy as np
 
 from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
+from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
 from ..features.check import check_features, repair_sites
 from ..features.expression_creases import CreaseSearch
@@ -31,7 +32,6 @@ from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
-from ..topology.regions import describe_regions, regions
 from .check import check_restricted
 from .criteria import FacetCriteria
 from .floor import SpacingFloor
@@ -60,14 +60,23 @@ class Budget:
     max_vertices: int | None = None
     time_limit: float | None = None
 
-    def exceeded(self, vertices: int, seconds: float, next_round: float = 0.0) -> str | None:
+    def exceeded(
+        self, vertices: int, seconds: float, next_round: float = 0.0, points: int = 0
+    ) -> str | None:
         """Which budget has run out, in words, or None.
 
-        ``next_round`` is the predicted time of another round: a round that
-        would end past the time limit is not started.
+        ``next_round`` is the predicted time of another round (inserting
+        ``points``): a round that would end past the time limit is not
+        started, and the message says so.
         """
         if self.time_limit is not None and seconds + next_round > self.time_limit:
-            return f"time_limit={self.time_limit:g}s reached"
+            if seconds >= self.time_limit:
+                return f"time_limit={self.time_limit:g}s reached after {seconds:.1f}s"
+            return (
+                f"time_limit={self.time_limit:g}s reached: stopped after {seconds:.1f}s, "
+                f"before a round of {points} points predicted to take {next_round:.1f}s "
+                "would end past the limit"
+            )
         if self.max_vertices is not None and vertices >= self.max_vertices:
             return f"max_vertices={self.max_vertices} reached"
         return None
@@ -108,29 +117,12 @@ class Mesher:
         self.timer = PhaseTimer()
         #: The surface may leave the ball; the mesh is the part inside.
         self.clipped = topology == "manifold-with-boundary"
-        #: Rounds, and times the feature check failed and the run began again with smaller balls.
-        self.rounds = self.repairs = 0
-        self._fresh()
+        self.rounds = 0
+        #: Times the feature check failed and the run began again with smaller balls.
+        self.repairs = 0
+        _fresh(self)
         #: Debug mode: check the bookkeeping every round (small runs only).
         self.check = os.environ.get("RDMESH_CHECK", "") not in ("", "0")
-
-    def _fresh(self) -> None:
-        """A new core, samples and pipeline (at the start, and for a repair)."""
-        surface = self.surface
-        self.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
-        box = clip_box(surface)
-        if box is not None:  # checked by mesh_surface: inside the ball, with a boundary
-            self.rdt.set_clip_box(box[0], box[1])
-        self.samples = Samples(self.rdt)
-        self.memo = LoopMemo()
-        self.proofs = ProofMemo()
-        self.pipeline = FacetPipeline(
-            self.rdt, surface, self.criteria, self.workers, self.timer, clipped=self.clipped
-        )
-        self.ball_ids = np.zeros(0, np.int64)
-        self.unresolved: list[np.ndarray] = []
-        self._snap: Snapshot | None = None
-        self.stalled = False
 
     def run(self) -> SurfaceMesh:
         """Mesh the surface; raises BudgetExceeded or Interrupted with the partial mesh.
@@ -144,7 +136,7 @@ class Mesher:
         ivals0 = getattr(self.surface.f, "interval_evaluations", 0)
         shrink: list[tuple[np.ndarray, np.ndarray]] = []
         while True:
-            mesh = self._attempt(t0, evals0, ivals0, shrink)
+            mesh = _attempt(self, t0, evals0, ivals0, shrink)
             sites = None if mesh.features is None else repair_sites(mesh, REPAIR_ANGLE)
             if sites is None or not len(sites[0]) or self.repairs == MAX_REPAIRS:
                 return mesh
@@ -153,62 +145,19 @@ class Mesher:
             log.info("features: shrinking balls at %d places and meshing again", len(sites[0]))
             shrink.append(sites)
             self.repairs += 1
-            self._fresh()
-
-    def _attempt(self, t0: float, evals0: int, ivals0: int, shrink: list) -> SurfaceMesh:
-        rng = np.random.default_rng(self.seed)
-        with self.timer("seeding"):
-            plan = METHODS[self.method](
-                self.surface, self.criteria, self.topology, rng, self.seed_resolution,
-                self.certify, edge_size=self.edge_size, shrink=shrink, creases=self.creases,
-            )  # fmt: skip
-        self.plan = plan
-        seeds, stop = plan.seeds, None
-        cap = self.budget.max_vertices
-        if cap is not None and len(seeds) > cap:
-            seeds, stop = seeds[:cap], f"max_vertices={cap} reached"
-        interrupted = False
-        try:
-            try:
-                if plan.balls is not None:
-                    # Balls first: they must not hide a vertex (the core refuses).
-                    self._insert(plan.balls.centres, "protect", plan.balls.weights)
-                    self.ball_ids = self.samples.last_ids
-                    self.pipeline.protected = True
-                self._insert(seeds, "seeds")
-                stop = self._loop(plan, t0, stop)
-                if not self.clipped:
-                    check_sphere_near(self.surface, self.vertices)
-            except KeyboardInterrupt:
-                interrupted, stop = True, "interrupted"
-                _restart_round(self)
-            mesh = _result(self, plan, t0, evals0, ivals0, stop)
-        finally:
-            self.pipeline.close()
-        if stop:
-            raise _stopped(stop, mesh, interrupted, self.stalled)
-        return mesh
+            _fresh(self)
 
     def _loop(self, plan: Plan, t0: float, stop: str | None) -> str | None:
         """Refinement rounds until nothing is left to refine or a budget runs out."""
         floor = SpacingFloor(self.criteria, self.surface.radius, plan.topology_floor)
-        place = None
-        if (
-            self.clipped
-            and plan.balls is None
-            and plan.boundary is not None
-            and len(plan.boundary.points)
-        ):
-            curve, sizing = plan.boundary, boundary_sizing(self.surface, self.criteria)
-
-            def place(found: Candidates, snap: Snapshot) -> tuple[Candidates, np.ndarray]:
-                return onto_curve(self.surface, curve, found, snap, sizing)
-
-        phases = Phases(plan.phases, floor, place)
+        phases = Phases(plan.phases, floor, _boundary_placer(self, plan))
         cap = self.budget.max_vertices
         # A round's cost (insert, update, stages, select) grows with the points
-        # it inserts: the next round is predicted from this one per point.
-        cycle_start, last_batch = t0, max(len(self.vertices), 1)
+        # it inserts: the next round is predicted from the loop's cost per point
+        # inserted or present (one round's is unstable: a test round that inserts
+        # a few points into a large mesh costs much per point), and at least as
+        # long as the last round.
+        cycle_start, loop_start, done = t0, time.perf_counter(), 0
         while stop is None:
             self.rounds += 1
             self.pipeline.update(self.vertices, self.weights)
@@ -228,11 +177,12 @@ class Mesher:
             with self.timer("select"):
                 batch = found.centres[core.select_independent(found.centres, found.radii)]
             now = time.perf_counter()
-            per_point = (now - cycle_start) / last_batch
-            stop = self.budget.exceeded(len(self.vertices), now - t0, per_point * len(batch))
+            per_point = (now - loop_start) / max(done, len(self.vertices), 1)
+            predicted = max(now - cycle_start, per_point * len(batch)) if done else 0.0
+            stop = self.budget.exceeded(len(self.vertices), now - t0, predicted, len(batch))
             if stop:
                 break
-            cycle_start, last_batch = now, max(len(batch), 1)
+            cycle_start, done = now, done + len(batch)
             if cap is not None and len(self.vertices) + len(batch) > cap:
                 batch = batch[: max(0, cap - len(self.vertices))]
                 stop = f"max_vertices={cap} reached"
@@ -270,6 +220,74 @@ class Mesher:
                 self.surface, self.rdt, self.vertices, self.memo, self.proofs, self.weights
             )
         return self._snap
+
+
+def _fresh(m: Mesher) -> None:
+    """A new core, samples and pipeline (at the start, and for a repair)."""
+    surface = m.surface
+    m.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
+    box = clip_box(surface)
+    if box is not None:  # checked by mesh_surface: inside the ball, with a boundary
+        m.rdt.set_clip_box(box[0], box[1])
+    m.samples = Samples(m.rdt)
+    m.memo = LoopMemo()
+    m.proofs = ProofMemo()
+    m.pipeline = FacetPipeline(m.rdt, surface, m.criteria, m.workers, m.timer, clipped=m.clipped)
+    m.ball_ids = np.zeros(0, np.int64)
+    m.unresolved: list[np.ndarray] = []
+    m._snap: Snapshot | None = None
+    m.stalled = False
+
+
+def _attempt(m: Mesher, t0: float, evals0: int, ivals0: int, shrink: list) -> SurfaceMesh:
+    """One meshing run from the seeds (the first, or a repair's with ``shrink``)."""
+    rng = np.random.default_rng(m.seed)
+    with m.timer("seeding"):
+        plan = METHODS[m.method](
+            m.surface, m.criteria, m.topology, rng, m.seed_resolution,
+            m.certify, edge_size=m.edge_size, shrink=shrink, creases=m.creases,
+        )  # fmt: skip
+    m.plan = plan
+    seeds, stop = plan.seeds, None
+    cap = m.budget.max_vertices
+    if cap is not None and len(seeds) > cap:
+        seeds, stop = seeds[:cap], f"max_vertices={cap} reached"
+    interrupted = False
+    try:
+        try:
+            if plan.balls is not None:
+                # Balls first: they must not hide a vertex (the core refuses).
+                m._insert(plan.balls.centres, "protect", plan.balls.weights)
+                m.ball_ids = m.samples.last_ids
+                m.pipeline.protected = True
+            m._insert(seeds, "seeds")
+            stop = m._loop(plan, t0, stop)
+            if not m.clipped:
+                check_sphere_near(m.surface, m.vertices)
+        except KeyboardInterrupt:
+            interrupted, stop = True, "interrupted"
+            _restart_round(m)
+        mesh = _result(m, plan, t0, evals0, ivals0, stop)
+    finally:
+        m.pipeline.close()
+    if stop:
+        raise _stopped(stop, mesh, interrupted, m.stalled)
+    return mesh
+
+
+def _boundary_placer(m: Mesher, plan: Plan):
+    """Without protecting balls, the boundary guard of a clipped surface
+    (:func:`onto_curve`), else None."""
+    if not m.clipped or plan.balls is not None or plan.boundary is None:
+        return None
+    if not len(plan.boundary.points):
+        return None
+    curve, sizing = plan.boundary, boundary_sizing(m.surface, m.criteria)
+
+    def place(found: Candidates, snap: Snapshot) -> tuple[Candidates, np.ndarray]:
+        return onto_curve(m.surface, curve, found, snap, sizing)
+
+    return place
 
 
 def _restart_round(m: Mesher) -> None:
@@ -403,6 +421,11 @@ def _result(
         mesh.complete = False
         mesh.stats["stop_reason"] = "interrupted during the report"
         raise Interrupted("interrupted during the report", mesh=mesh, reason="interrupted")
+    problems = getattr(m.surface, "input_report", lambda _: None)(mesh.unresolved)
+    if problems is not None and mesh.report is not None:
+        # What in the input stands in the way of its topology (issue 30).
+        mesh.report["input"] = problems
+        mesh.report["statement"] += " The input: " + problems["statement"] + "."
     if stop:
         mesh.complete = False
         mesh.stats["stop_reason"] = stop
@@ -414,6 +437,9 @@ def _result(
             f"{len(f.corners) - f.corners_kept} corners not kept (SurfaceMesh.features.failed)"
         )
         log.warning("%s", mesh.stats["stop_reason"])
+    elif problems is not None and problems["incomplete"]:
+        mesh.complete = False
+        mesh.stats["stop_reason"] = problems["statement"]
     elif len(mesh.unresolved):
         mesh.complete = False
         mesh.stats["stop_reason"] = (
