@@ -14,10 +14,9 @@ import rdmesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from meshcheck import assert_good_mesh, euler_per_component
+from rdmesh.creases import find_creases, piece_model
 from rdmesh.features import FeatureError
-from rdmesh.features.expression_creases import piece_model
 from rdmesh.features.graph import build_graph
-from rdmesh.refine.feature_curves import find_creases
 from rdmesh.surfaces import SURFACES
 from rdmesh.surfaces.builtin import BUILTIN_EXPRESSIONS
 from rdmesh.surfaces.expressions import parse_expression
@@ -365,7 +364,8 @@ def test_an_expression_box_keeps_its_creases_exactly(box_mesh):
     corners = m.vertices[m.features.corners]
     assert np.abs(np.sort(corners, axis=0) - np.sort(CORNERS, axis=0)).max() == 0
     rep = m.report["creases"]
-    assert rep["curves"] == 12 and rep["level"] == "intervals" and rep["unresolved"] == []
+    assert rep["curves"] == 12 and rep["corners"] == 8
+    assert rep["level"] == "intervals" and rep["unresolved"] == []
     assert m.report["features"]["sources"] == ["crease"]
 
 

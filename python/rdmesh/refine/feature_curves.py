@@ -5,20 +5,12 @@ box, and the creases found in an expression or CSG tree (each a
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
-from .._errors import BoundingSphereError, EmptySurfaceError
 from .._vectors import row_norms
-from ..features.expression_creases import (
-    CreaseSearch,
-    creases_from_crossings,
-    piece_model,
-    refuse_steps,
-)
+from ..creases.search import CreaseSearch, find_creases, piece_model
 from ..features.graph import (
     FeatureCurve,
     FeatureError,
@@ -29,7 +21,6 @@ from ..features.graph import (
     given_curves,
 )
 from ..sampling.boundary import BoundaryCurve, project_onto_curve
-from ..sampling.grid import grid_scan
 
 #: A given curve's points must lie within this of the surface (|f| / |grad f|), times R.
 ON_SURFACE = 1e-6
@@ -183,7 +174,7 @@ def feature_graph(
     boundary (``boundary``, traced), for a volume closed by its box, the
     box's creases (``volume_curve``, traced on the box), and the creases
     found in its expression or CSG tree (``creases``:
-    :func:`find_creases`)."""
+    :func:`~rdmesh.creases.search.find_creases`)."""
     R = surface.radius
     curves = given_curves(as_polylines(getattr(surface, "features", None)), R)
     if creases is not None:
@@ -204,7 +195,7 @@ def feature_graph(
 
 def search_creases(surface, topology: str, seed: int, resolution: int) -> CreaseSearch | None:
     """The creases of a surface whose function is an expression or a CSG tree
-    (:func:`find_creases`), unless its
+    (:func:`~rdmesh.creases.search.find_creases`), unless its
     features are given or off; None when there is nothing to search. A
     surface with a boundary (a clip box, or ``topology="manifold-with-boundary"``)
     is not searched: creases that reach the boundary are not followed onto
@@ -219,49 +210,4 @@ def search_creases(surface, topology: str, seed: int, resolution: int) -> Crease
     return find_creases(surface, seed=seed, resolution=resolution)
 
 
-def find_creases(
-    surface: Any, *, seed: int = 0, resolution: int = 64, intervals: bool = True
-) -> CreaseSearch | None:
-    """The creases and corners of a surface built from ``min``, ``max`` and
-    ``abs`` (an expression, or a tree made by :mod:`rdmesh.csg`), seeded from
-    the crossings of the mesher's seeding grid
-    (:func:`~rdmesh.features.expression_creases.creases_from_crossings`).
-
-    Parameters
-    ----------
-    surface : ImplicitSurface
-    seed : int
-        Seed of the grid's rotation (the mesher's own, so that the crossings
-        are the same).
-    resolution : int
-        Cells of the seeding grid across the bounding ball.
-    intervals : bool
-        Settle the rest by interval arithmetic (expressions only).
-
-    Returns
-    -------
-    CreaseSearch or None
-        None when the function has no such structure (nothing to search).
-
-    Raises
-    ------
-    FeatureError
-        The expression uses ``sign``, ``floor`` or ``ceil`` (not piecewise
-        smooth).
-    """
-    t0 = time.perf_counter()
-    model = piece_model(surface)
-    if model is None:
-        return None
-    refuse_steps(model, getattr(surface, "name", "the surface"))
-    try:
-        scan = grid_scan(surface, np.random.default_rng(seed), resolution)
-    except (BoundingSphereError, EmptySurfaceError):
-        # The mesher's own scan raises the same error.
-        return CreaseSearch(seconds=time.perf_counter() - t0)
-    return creases_from_crossings(
-        surface, scan.crossings, scan.spacing, intervals=intervals, t0=t0
-    )
-
-
-__all__ = ["FeatureError", "check_on_surface", "feature_graph", "find_creases", "search_creases"]
+__all__ = ["FeatureError", "check_on_surface", "feature_graph", "search_creases"]

@@ -22,8 +22,8 @@ from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
+from ..creases.search import CreaseSearch
 from ..features.check import check_features, repair_sites
-from ..features.expression_creases import CreaseSearch
 from ..io.result import SurfaceMesh
 from ..sampling.boundary import BoundaryCurve, guard_boundary
 from ..sampling.domain import clip_box

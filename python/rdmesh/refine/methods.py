@@ -22,8 +22,8 @@ from scipy.spatial import cKDTree
 
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
+from ..creases.search import CreaseSearch
 from ..features import Balls, FeatureGraph, protect
-from ..features.expression_creases import CreaseSearch
 from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
 from ..sampling.components import find_components
 from ..sampling.critical import CriticalPoints, critical_points

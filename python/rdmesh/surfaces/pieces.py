@@ -18,7 +18,7 @@ once, with forward-mode gradients:
 
 A point's *label* is its choices at the reachable nodes (-1 elsewhere): two
 points with different labels lie on different pieces, and a crease of the
-surface lies where two pieces meet (:mod:`rdmesh.features.expression_creases`).
+surface lies where two pieces meet (:mod:`rdmesh.creases.search`).
 
 Leaves may also be :class:`Opaque`: a smooth function given as numpy callables
 (value and gradient), as :mod:`rdmesh.csg` builds from plain functions.

@@ -1,4 +1,4 @@
-"""The equations of creases and corners for tracing (:mod:`rdmesh.features.tracing`).
+"""The equations of creases and corners for tracing (:mod:`rdmesh.creases.tracing`).
 
 A crease of a piecewise smooth function (:class:`~rdmesh.surfaces.pieces.PieceModel`)
 is ``{F = 0, s = 0}``: the piece ``F`` (every decision node held on a branch,

@@ -16,8 +16,8 @@ How they are found:
    the same grid the mesher seeds with) is labelled by its pieces; each pair of
    crossings closer than two grid cells with different labels brackets a crease
    of the highest node where they differ. Its midpoint is projected onto that
-   crease by minimum-norm Gauss-Newton (:func:`~rdmesh.features.tracing.newton_project`).
-2. **Tracing** (:func:`~rdmesh.features.tracing.trace`), from one seed of each
+   crease by minimum-norm Gauss-Newton (:func:`~rdmesh.creases.tracing.newton_project`).
+2. **Tracing** (:func:`~rdmesh.creases.tracing.trace`), from one seed of each
    crease at a time, both ways, until the curve closes or a third piece joins.
 3. **Corners**: Newton on the three equations (piece, both switches), bracketed
    by the last two points of the trace (bisection along the curve where
@@ -51,12 +51,14 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .._errors import BoundingSphereError, EmptySurfaceError
 from .._vectors import row_norms
+from ..features.graph import FeatureCurve, FeatureError
+from ..sampling.grid import grid_scan
 from ..surfaces.expressions import Expression
 from ..surfaces.pieces import PieceModel, PiecewiseFunction
-from .crease_boxes import CREASE, NOTHING, SMOOTH, settle
-from .crease_system import CreaseSystem, Projection, solve_corner
-from .graph import FeatureCurve, FeatureError
+from .boxes import CREASE, NOTHING, SMOOTH, settle
+from .system import CreaseSystem, Projection, solve_corner
 from .tracing import newton_project, trace
 
 log = logging.getLogger("rdmesh")
@@ -142,6 +144,7 @@ class CreaseSearch:
         return {
             "curves": len(self.curves),
             "closed": sum(c.closed for c in self.curves),
+            "corners": len(np.unique(np.round(self.corners, 9), axis=0)),
             "seeds": self.seeds,
             "level": self.level,
             "boxes": dict(self.boxes),
@@ -162,7 +165,7 @@ def creases_from_crossings(
     """The creases and corners of a surface built from ``min``, ``max`` and
     ``abs`` (an expression, or a tree made by :mod:`rdmesh.csg`), seeded
     from the crossings of a grid
-    (:func:`rdmesh.refine.feature_curves.find_creases` scans the mesher's).
+    (:func:`find_creases` scans the mesher's).
 
     Parameters
     ----------
@@ -202,7 +205,7 @@ def creases_from_crossings(
         boxes = settle(surface.f, search)
         level = "intervals"
     out = CreaseSearch(
-        curves=search.feature_curves(),
+        curves=feature_curves(search),
         unresolved=_regions(search.unresolved_points(), spacing),
         boxes=boxes,
         seeds=search.n_seeds,
@@ -220,6 +223,51 @@ def creases_from_crossings(
             len(out.unresolved), np.round(out.unresolved[0], 6).tolist(),
         )  # fmt: skip
     return out
+
+
+def find_creases(
+    surface: Any, *, seed: int = 0, resolution: int = 64, intervals: bool = True
+) -> CreaseSearch | None:
+    """The creases and corners of a surface built from ``min``, ``max`` and
+    ``abs`` (an expression, or a tree made by :mod:`rdmesh.csg`), seeded from
+    the crossings of the mesher's seeding grid
+    (:func:`~rdmesh.creases.search.creases_from_crossings`).
+
+    Parameters
+    ----------
+    surface : ImplicitSurface
+    seed : int
+        Seed of the grid's rotation (the mesher's own, so that the crossings
+        are the same).
+    resolution : int
+        Cells of the seeding grid across the bounding ball.
+    intervals : bool
+        Settle the rest by interval arithmetic (expressions only).
+
+    Returns
+    -------
+    CreaseSearch or None
+        None when the function has no such structure (nothing to search).
+
+    Raises
+    ------
+    FeatureError
+        The expression uses ``sign``, ``floor`` or ``ceil`` (not piecewise
+        smooth).
+    """
+    t0 = time.perf_counter()
+    model = piece_model(surface)
+    if model is None:
+        return None
+    refuse_steps(model, getattr(surface, "name", "the surface"))
+    try:
+        scan = grid_scan(surface, np.random.default_rng(seed), resolution)
+    except (BoundingSphereError, EmptySurfaceError):
+        # The mesher's own scan raises the same error.
+        return CreaseSearch(seconds=time.perf_counter() - t0)
+    return creases_from_crossings(
+        surface, scan.crossings, scan.spacing, intervals=intervals, t0=t0
+    )
 
 
 def crossing_seeds(
@@ -255,24 +303,17 @@ def refuse_steps(model: PieceModel, name: str) -> None:
         )
 
 
-class _Search:
-    """The state of one search: seeds grouped by crease, the curves traced."""
+class CreaseTable:
+    """The creases met so far, each by the branches on its side A
+    (``forced``), its switching node (``node``) and the nodes that switch
+    together across it (``delta``)."""
 
-    def __init__(self, model: PieceModel, centre: np.ndarray, R: float, spacing: float) -> None:
-        self.model, self.centre, self.R = model, np.asarray(centre, float), R
-        self.spacing = spacing
-        self.h_max = STEP * spacing
+    def __init__(self, model: PieceModel) -> None:
+        self.model = model
         self.keys: dict[bytes, int] = {}
         self.forced = np.zeros((0, model.size), np.int8)
         self.delta = np.zeros((0, model.size), bool)
         self.node = np.zeros(0, np.int64)
-        # Seeds: point and crease (index into forced / node).
-        self.seed_x = np.zeros((0, 3))
-        self.seed_c = np.zeros(0, np.int64)
-        self.n_seeds = 0
-        # Traced curves: points, closed, crease, how each end ended.
-        self.traced: list[tuple[np.ndarray, bool, int]] = []
-        self.lost: list[np.ndarray] = []
 
     @property
     def system(self) -> CreaseSystem:
@@ -296,6 +337,32 @@ class _Search:
                 self.node = np.r_[self.node, row[-1]]
             index[u] = self.keys[b]
         return index[inverse.reshape(-1)]
+
+
+class _Search:
+    """The state of one search: seeds grouped by crease, the curves traced."""
+
+    def __init__(self, model: PieceModel, centre: np.ndarray, R: float, spacing: float) -> None:
+        self.model, self.centre, self.R = model, np.asarray(centre, float), R
+        self.spacing = spacing
+        self.h_max = STEP * spacing
+        self.table = CreaseTable(model)
+        # Seeds: point and crease (index into forced / node).
+        self.seed_x = np.zeros((0, 3))
+        self.seed_c = np.zeros(0, np.int64)
+        self.n_seeds = 0
+        # Traced curves: points, closed, crease, how each end ended.
+        self.traced: list[tuple[np.ndarray, bool, int]] = []
+        self.lost: list[np.ndarray] = []
+
+    @property
+    def system(self) -> CreaseSystem:
+        return self.table.system
+
+    @property
+    def node(self) -> np.ndarray:
+        """The switching node of each crease."""
+        return self.table.node
 
     def add_seeds(self, x: np.ndarray, key: np.ndarray, node: np.ndarray) -> None:
         """Project candidate seeds onto their creases and keep the valid ones."""
@@ -322,7 +389,7 @@ class _Search:
         rows = np.arange(len(x))
         delta = np.zeros(key.shape, bool)
         delta[rows, node] = True
-        c = self.crease_of(key, node, delta)
+        c = self.table.crease_of(key, node, delta)
         y, ok, _ = newton_project(self.system, x, c, TRACE_TOL * self.R)
         ok &= row_norms(y - x) <= 2.0 * self.spacing
         # The branches on both sides of the switch surface at the point: the
@@ -362,7 +429,7 @@ class _Search:
         swap = la[rows, k] == 1
         la, lb = np.where(swap[:, None], lb, la), np.where(swap[:, None], la, lb)
         key = np.where(la >= 0, la, lb).astype(np.int8)
-        return self.crease_of(key, k, delta), ok
+        return self.table.crease_of(key, k, delta), ok
 
     def run(self) -> None:
         """Trace one seed of every crease with seeds left, until none is left."""
@@ -395,23 +462,9 @@ class _Search:
             if fwd.end[i] == "closed":
                 self._accept(fwd.points[i], True, int(crease[i]))
                 continue
-            head = self._finish(bwd, back[i], int(crease[i]))
-            tail = self._finish(fwd, i, int(crease[i]))
+            head = _finish(self, bwd, back[i], int(crease[i]))
+            tail = _finish(self, fwd, i, int(crease[i]))
             self._accept(np.concatenate([head[::-1], tail[1:]]), False, int(crease[i]))
-
-    def _finish(self, tr, i: int, crease: int) -> np.ndarray:
-        """The points of trace ``i``, its last one replaced by the corner when
-        it ended past one (and the place noted when it was lost)."""
-        pts = tr.points[i]
-        if tr.end[i] in ("lost", "steps"):
-            self.lost.append(pts[-1:])
-        if tr.end[i] != "event":
-            return pts
-        before = pts[-2] if len(pts) > 1 else pts[-1]
-        corner = solve_corner(
-            self.system, before, pts[-1], crease, int(tr.event[i]), PROJECT_TOL * self.R
-        )
-        return np.r_[pts[:-1], corner[None]]
 
     def _accept(self, pts: np.ndarray, closed: bool, crease: int) -> None:
         """Keep a traced curve unless it repeats one already kept."""
@@ -423,16 +476,32 @@ class _Search:
                 return
         self.traced.append((pts, closed, crease))
 
-    def feature_curves(self) -> list[FeatureCurve]:
-        """The traced creases as feature curves with exact projections."""
-        out = []
-        for i, (pts, closed, c) in enumerate(self.traced):
-            project = Projection(self.system, c, PROJECT_TOL * self.R)
-            out.append(FeatureCurve(pts, closed, "crease", project, f"crease {i}"))
-        return out
-
     def unresolved_points(self) -> np.ndarray:
         return np.concatenate(self.lost) if self.lost else np.zeros((0, 3))
+
+
+def _finish(search: _Search, tr, i: int, crease: int) -> np.ndarray:
+    """The points of trace ``i``, its last one replaced by the corner when
+    it ended past one (and the place noted when it was lost)."""
+    pts = tr.points[i]
+    if tr.end[i] in ("lost", "steps"):
+        search.lost.append(pts[-1:])
+    if tr.end[i] != "event":
+        return pts
+    before = pts[-2] if len(pts) > 1 else pts[-1]
+    corner = solve_corner(
+        search.system, before, pts[-1], crease, int(tr.event[i]), PROJECT_TOL * search.R
+    )
+    return np.r_[pts[:-1], corner[None]]
+
+
+def feature_curves(search: _Search) -> list[FeatureCurve]:
+    """The traced creases as feature curves with exact projections."""
+    out = []
+    for i, (pts, closed, c) in enumerate(search.traced):
+        project = Projection(search.system, c, PROJECT_TOL * search.R)
+        out.append(FeatureCurve(pts, closed, "crease", project, f"crease {i}"))
+    return out
 
 
 def _regions(points: np.ndarray, link: float) -> np.ndarray:
@@ -509,6 +578,7 @@ __all__ = [
     "CreaseSearch",
     "creases_from_crossings",
     "crossing_seeds",
+    "find_creases",
     "piece_model",
     "refuse_steps",
 ]

@@ -1,6 +1,6 @@
 """Completeness of the crease search for expressions, by interval arithmetic.
 
-The seeds of :mod:`rdmesh.features.expression_creases` come from a grid: a
+The seeds of :mod:`rdmesh.creases.search` come from a grid: a
 crease shorter than a cell, or a small loop, can fall between its crossings.
 Here an octree of boxes over the bounding ball settles every place:
 
@@ -97,7 +97,7 @@ class _Switches:
 
 def settle(expr, search) -> dict:
     """Settle every box of the bounding ball's cube for the crease search
-    ``search`` (an ``expression_creases._Search`` on ``expr``'s pieces),
+    ``search`` (an ``search._Search`` on ``expr``'s pieces),
     tracing the creases found on the way; returns the boxes by outcome and
     adds the unresolved ones to ``search.lost``."""
     model, R = search.model, search.R

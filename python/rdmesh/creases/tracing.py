@@ -2,7 +2,7 @@
 
 A curve here is ``{g1 = 0, g2 = 0}`` for two smooth functions of space with
 gradients that are not parallel on it (a crease: a piece of the surface and
-the switch between two pieces; :mod:`rdmesh.features.expression_creases`).
+the switch between two pieces; :mod:`rdmesh.creases.search`).
 A *system* evaluates, for ``m`` points and the curve each belongs to, the
 residuals ``(m, 2)``, the Jacobians ``(m, 2, 3)`` and an *event* per point:
 -1, or the decision node whose change of branch ends the curve there (a
