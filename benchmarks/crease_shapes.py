@@ -6,7 +6,7 @@ from_expression`` meshes with ``features="auto"``) or, for ``box_hole``, a
 :func:`rdmesh.csg.difference` of two numpy callables, together with the same
 function in numpy (``f``), a signed distance (``sdf``, exact or a bound near
 the surface, for the surface-distance metric), the exact creases
-(:mod:`feature_metrics` segments and arcs, full circles as two half arcs),
+(:mod:`feature_metrics` segments and circles),
 the corners and the genus.  The same functions are in
 ``cgal_reference/cgal_reference.cpp`` under the same names, so that CGAL's
 Mesh_3 meshes them with the curves given as polylines
@@ -23,8 +23,11 @@ Shapes (``SHAPES``):
 - ``box_dimple``: the cube minus the ball of radius 0.6 about
   ``(0, 0, 1.3)``: 12 segments, 8 corners, 1 circle on the top face;
 - ``box_hole``: the cube minus the rod ``sqrt(x^2 + y^2) < 0.5`` by
-  ``rdmesh.csg.difference`` of two numpy callables (genus 1): 12 segments,
-  8 corners, 2 circles.
+  ``rdmesh.csg.difference`` (genus 1): 12 segments, 8 corners, 2 circles.
+  Both operands are numpy callables, the cube the ``rdmesh.csg.intersection``
+  of six half-spaces ``+-x - 1`` (each a numpy callable): a cube given as one
+  callable ``max(|x|, |y|, |z|) - 1`` hides its edges inside the callable,
+  and only the two circles would be found.
 
 ``box`` and ``box_ball`` of ``cad_shapes`` are found from their expressions
 too (:data:`EXPRESSIONS`).
@@ -37,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from cad_shapes import box_corners, box_curves, box_sdf
-from feature_metrics import Arc, Segment
+from feature_metrics import Circle, Segment
 
 __all__ = [
     "ARC_SEGMENTS",
@@ -91,16 +94,9 @@ def _rows(p: np.ndarray) -> np.ndarray:
     return np.asarray(p, dtype=np.float64)
 
 
-def _circle(centre, radius: float, axis: int) -> list[Arc]:
-    """The circle about ``centre`` in the plane normal to ``axis``, as two half arcs."""
-    c = np.asarray(centre, float)
-    u, v = np.eye(3)[[a for a in range(3) if a != axis]]
-    start, end = c + radius * u, c - radius * u
-    normal = np.cross(u, v)
-    return [
-        Arc(tuple(c), tuple(start), tuple(end), tuple(normal)),
-        Arc(tuple(c), tuple(end), tuple(start), tuple(normal)),
-    ]
+def _circle(centre, radius: float, axis: int) -> list[Circle]:
+    """The circle about ``centre`` in the plane normal to ``axis``."""
+    return [Circle(tuple(map(float, centre)), radius, tuple(np.eye(3)[axis]))]
 
 
 def _f_box(p):
@@ -109,7 +105,7 @@ def _f_box(p):
 
 def _box_rotated() -> CreaseShape:
     rows = " , ".join(
-        "abs(" + " + ".join(f"({c!r})*{v}" for c, v in zip(r, "xyz", strict=True)) + ")"
+        "abs(" + " + ".join(f"({float(c)!r})*{v}" for c, v in zip(r, "xyz", strict=True)) + ")"
         for r in ROTATION
     )
     corners = np.array([np.linalg.solve(ROTATION, s) for s in box_corners()])
@@ -197,15 +193,21 @@ def _box_hole() -> CreaseShape:
     def surface():
         import rdmesh
 
-        box = rdmesh.ImplicitSurface(_f_box, sphere, name="box")
+        def plane(axis: int, side: float):
+            return rdmesh.ImplicitSurface(
+                lambda p: side * p[:, axis] - 1.0, sphere, name=f"{side:+.0f}{'xyz'[axis]}"
+            )
+
+        faces = [plane(axis, side) for axis in range(3) for side in (1.0, -1.0)]
+        box = rdmesh.csg.intersection(*faces, bounding_sphere=sphere, name="box")
         rod = rdmesh.ImplicitSurface(_rod, ((0.0, 0.0, 0.0), 3.0), name="rod")
         return rdmesh.csg.difference(box, rod, name="box_hole")
 
     curves = box_curves() + _circle((0, 0, 1), 0.5, 2) + _circle((0, 0, -1), 0.5, 2)
     return CreaseShape(
         "box_hole", None, f, sdf, curves, box_corners(), sphere, 1,
-        "rdmesh.csg.difference(box, rod) of two numpy callables (genus 1): "
-        "12 segments, 2 circles", csg=surface,
+        "csg.difference(box, rod), the box csg.intersection of six numpy half-spaces, "
+        "the rod a numpy callable (genus 1): 12 segments, 2 circles", csg=surface,
     )  # fmt: skip
 
 
@@ -220,25 +222,15 @@ SHAPES: dict[str, Callable[[], CreaseShape]] = {
 
 
 def polylines(curves: list) -> list[np.ndarray]:
-    """The curves as CGAL polylines: a segment as its two ends, the two half
-    arcs of a circle as one closed polyline of :data:`ARC_SEGMENTS` chords,
-    any other arc as its share of that many."""
+    """The curves as CGAL polylines: a segment as its two ends, a circle as
+    one closed polyline of :data:`ARC_SEGMENTS` chords, an arc as its share
+    of that many."""
     out: list[np.ndarray] = []
-    k = 0
-    while k < len(curves):
-        c = curves[k]
+    for c in curves:
         if isinstance(c, Segment):
             out.append(c.sample(1))
-            k += 1
-            continue
-        n = max(2, int(np.ceil(ARC_SEGMENTS * c.sweep / (2 * np.pi))))
-        nxt = curves[k + 1] if k + 1 < len(curves) else None
-        if isinstance(nxt, Arc) and nxt.start == c.end and nxt.end == c.start:
-            pts = np.concatenate([c.sample(n), nxt.sample(n)[1:]])
-            pts[-1] = pts[0]
-            out.append(pts)
-            k += 2
+        elif isinstance(c, Circle):
+            out.append(c.sample(ARC_SEGMENTS))
         else:
-            out.append(c.sample(n))
-            k += 1
+            out.append(c.sample(max(2, int(np.ceil(ARC_SEGMENTS * c.sweep / (2 * np.pi))))))
     return out

@@ -165,7 +165,7 @@ def _implicit_case(name: str, curves, corners, f, sdf, tol: float, description: 
         bounding_sphere=cgal_runner.BOUNDING_SPHERES[name],
         polylines=cad_shapes.curve_polylines(curves, arc_segments=64),
         error_bound=1e-8,
-        expression=crease_shapes.EXPRESSIONS[name],
+        expression=crease_shapes.EXPRESSIONS.get(name),
     )
 
 
@@ -173,7 +173,7 @@ def _found_case(name: str) -> Case:
     """A shape of ``crease_shapes``: tol 1e-4 with circles (above their
     polylines' sagitta), else 1e-6 times the diagonal."""
     shape = crease_shapes.SHAPES[name]()
-    circles = any(isinstance(c, fm.Arc) for c in shape.curves)
+    circles = any(isinstance(c, fm.Circle) for c in shape.curves)
     case = _implicit_case(
         name, shape.curves, shape.corners, shape.f, shape.sdf,
         1e-4 if circles else 1e-6 * np.sqrt(12.0), shape.description,

@@ -406,3 +406,16 @@ def test_a_holed_box_from_numpy_functions_is_genus_1_with_its_creases():
     x = m.vertices[np.concatenate(rims)]
     assert np.abs(np.hypot(x[:, 0], x[:, 1]) - 0.4).max() <= 1e-12
     assert np.abs(np.abs(x[:, 2]) - 0.5).max() <= 1e-12
+
+
+def test_cli_finds_the_creases_of_an_expression_and_no_features_turns_it_off(tmp_path, capsys):
+    from rdmesh import cli
+
+    args = ["mesh", CYLINDER, "--bound", "2", "--radius", "0.2", "--distance", "0.02", "--quiet"]
+    assert cli.main([*args, "-o", str(tmp_path / "a.ply")]) == 0
+    text = capsys.readouterr().out
+    assert "creases found: 2 curves, 0 corners (the interval search settled" in text
+    assert "features: 2 curves, 0 corners kept" in text
+    assert cli.main([*args, "-o", str(tmp_path / "b.ply"), "--no-features"]) == 0
+    text = capsys.readouterr().out
+    assert "creases found" not in text and "features:" not in text
