@@ -13,7 +13,9 @@ bounding ball), so its cost does not grow with the mesh; the ratio falls as
 the mesh grows.
 
 Run: ``python benchmarks/crease_cost.py`` (a few minutes); writes
-``benchmarks/results/crease-cost-<date>.json`` and prints a markdown table.
+``benchmarks/results/crease-cost-<date>.json`` (``-2``, ... for later runs of
+the same day) and prints a markdown table. The radius bound is a rough
+estimate: ``--vertices 130000`` gave 91k to 114k vertices on these shapes.
 """
 
 from __future__ import annotations
@@ -112,7 +114,10 @@ def main(argv: list[str] | None = None) -> int:
         )
     print("\n".join(lines))
     if not args.no_json:
-        path = args.out / f"crease-cost-{datetime.date.today().isoformat()}.json"
+        stem = f"crease-cost-{datetime.date.today().isoformat()}"
+        path, k = args.out / f"{stem}.json", 2
+        while path.exists():
+            path, k = args.out / f"{stem}-{k}.json", k + 1
         record.save(rec, path)
         print(f"\nwrote {path}")
     return 0

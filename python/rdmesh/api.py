@@ -136,7 +136,13 @@ def mesh_surface(
         vertex; next to the balls the angle, size and distance criteria are
         relaxed as in CGAL's Mesh_3 (``SurfaceMesh.features`` says what
         held). Boissonnat-Oudot only: "topological-ball" and ``certify``
-        refuse given feature curves.
+        refuse given feature curves. The creases of an expression's
+        ``min``, ``max`` and ``abs`` and of a :mod:`rdmesh.csg` tree are
+        found first (``features="auto"``, the default;
+        :func:`rdmesh.creases.find_creases`, ``report["creases"]``) and
+        protected the same way; a surface with creases found is meshed by
+        "boissonnat-oudot" without ``certify`` whatever ``method`` says
+        (with a warning, and the report's note).
 
     Returns
     -------
@@ -146,7 +152,9 @@ def mesh_surface(
     ------
     rdmesh.FeatureError
         (a ValueError) A given feature curve is not on the surface, or the
-        curves cannot be protected (curves or corners closer than 1e-6 R).
+        curves cannot be protected (curves or corners closer than 1e-6 R),
+        or an expression with features on uses ``sign``, ``floor`` or
+        ``ceil`` (its surface jumps).
     ValueError
         Invalid criteria, method or topology; given feature curves with the
         topological-ball method or ``certify``; a surface clipped to a box
