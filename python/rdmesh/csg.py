@@ -11,12 +11,13 @@ inside) and returns one for the combined solid:
   continuous with its gradient): no crease.
 
 The result records how it was made, so that :func:`rdmesh.mesh_surface`
-finds its creases and corners exactly (:mod:`rdmesh.features`), whatever the
+finds its creases and corners exactly (:mod:`rdmesh.creases`), whatever the
 operands are:
 
 - when every operand is an expression (:meth:`ImplicitSurface.from_expression`),
   the result is the expression of the combination, with its exact gradient and
-  interval bounds (so ``certify`` and the interval search for creases apply);
+  interval bounds (so the interval search for creases applies; a surface
+  with creases found is meshed by Boissonnat-Oudot and never certified);
 - otherwise the result's function is a
   :class:`~rdmesh.surfaces.pieces.PiecewiseFunction`: the tree of ``min`` and
   ``max`` over the operands, each evaluated and differentiated by itself (its
