@@ -262,6 +262,53 @@ def test_a_clipped_plane_has_its_boundary_protected():
     assert m.topology()["euler"] == [1] and m.report["boundary"]["loops_match"]
 
 
+def test_curves_rdmesh_cannot_protect_are_left_out_and_reported(caplog):
+    # On the box face z = 0 the clip boundary is x y = 1e-14: two branches
+    # 2e-7 apart at the origin, closer than the smallest ball.
+    def saddle(p):
+        return p[:, 0] * p[:, 1] - 1e-14 + 0.3 * p[:, 2]
+
+    box = np.array([[-1.0, -1.0, 0.0], [1.0, 1.0, 1.0]])
+    s = rdmesh.ImplicitSurface(saddle, ((0, 0, 0), 1.8), clip_box=box)
+    with caplog.at_level("WARNING", logger="rdmesh"):
+        m = rdmesh.mesh_surface(s, topology="manifold-with-boundary", radius_bound=0.1)
+    f = m.report["features"]
+    assert f["held"] is False and "smaller than" in f["abandoned"]
+    assert m.features is None and not m.complete
+    assert m.stats["stop_reason"].startswith("feature curves not protected")
+    assert "not protected" in caplog.text
+    # Still the whole surface: one disk-like sheet meeting the box.
+    assert len(m.faces) > 100 and np.abs(saddle(m.vertices)).max() < 1e-6
+    # Given curves that cannot be protected are an error, not left out.
+    # Two level curves of the sheet 1e-7 apart.
+    x = np.linspace(0.3, 0.6, 50)
+    close = [np.c_[x, (1e-14 - 0.3 * z) / x, np.full_like(x, z)] for z in (0.5, 0.5 + 1e-7)]
+    with pytest.raises(FeatureError):
+        given = rdmesh.ImplicitSurface(saddle, ((0, 0, 0), 1.8), clip_box=box, features=close)
+        rdmesh.mesh_surface(given, topology="manifold-with-boundary", radius_bound=0.1)
+
+
+def test_crossings_are_found_beside_a_long_segment():
+    from rdmesh.features.graph import build_graph, curve_of_polyline
+
+    # One long straight segment (a box edge) and a dense circle around it:
+    # the proximity search must not widen to every pair, and must still see
+    # a crossing of the segment with the circle.
+    t = np.linspace(0, 2 * np.pi, 20001)
+    ring = np.c_[np.cos(t), np.sin(t), np.zeros_like(t)]
+    ring[-1] = ring[0]
+    apart = [np.array([[-5.0, 0, 1.0], [5.0, 0, 1.0]]), ring]
+    graph = build_graph(
+        [curve_of_polyline(p, 5.0, f"c{k}", "given") for k, p in enumerate(apart)], 5.0
+    )
+    assert len(graph.curves) == 2
+    crossing = [np.array([[-5.0, 0, 0], [5.0, 0, 0]]), ring]
+    with pytest.raises(FeatureError, match="cross"):
+        build_graph(
+            [curve_of_polyline(p, 5.0, f"c{k}", "given") for k, p in enumerate(crossing)], 5.0
+        )
+
+
 # -- the command line ---------------------------------------------------------------------
 
 

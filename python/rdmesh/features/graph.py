@@ -241,6 +241,40 @@ def _point_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndar
     return row_norms(a + t[:, None] * d - p), t
 
 
+def _pieces(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Segments cut into pieces no longer than ``h``: (piece midpoints, the
+    segment of each piece, ``h``).  ``h`` is twice the median length, or more
+    so that there are at most five times as many pieces as segments: one long
+    segment (a box edge) then does not widen every proximity query."""
+    length = row_norms(b - a)
+    h = max(2.0 * float(np.median(length)), float(length.sum()) / (4.0 * len(length)), 1e-300)
+    n = np.maximum(np.ceil(length / h).astype(np.int64), 1)
+    seg = np.repeat(np.arange(len(a)), n)
+    first = np.cumsum(n) - n
+    t = (np.arange(len(seg)) - first[seg] + 0.5) / n[seg]
+    return a[seg] + t[:, None] * (b - a)[seg], seg, h
+
+
+def _near_points(points: np.ndarray, a: np.ndarray, b: np.ndarray, tol: float):
+    """Candidate (point, segment) pairs: every segment within ``tol`` of a
+    point is among them (unique pairs, as two arrays)."""
+    mid, seg, h = _pieces(a, b)
+    hits = cKDTree(mid).query_ball_point(points, 0.5 * h + tol)
+    k = np.repeat(np.arange(len(points)), [len(x) for x in hits])
+    s = seg[np.concatenate([np.asarray(x, np.int64) for x in hits])] if len(k) else k
+    pairs = np.unique(np.stack([k, s], axis=1), axis=0) if len(k) else np.zeros((0, 2), np.int64)
+    return pairs[:, 0], pairs[:, 1]
+
+
+def _near_segments(a: np.ndarray, b: np.ndarray, tol: float) -> np.ndarray:
+    """Candidate segment pairs (i < j): every pair within ``tol`` is among them."""
+    mid, seg, h = _pieces(a, b)
+    p = cKDTree(mid).query_pairs(h + tol, output_type="ndarray")
+    p = np.sort(seg[p], axis=1)
+    p = p[p[:, 0] != p[:, 1]]
+    return np.unique(p, axis=0) if len(p) else np.zeros((0, 2), np.int64)
+
+
 def _split_at_ends(curves: list[FeatureCurve], tol: float) -> list[FeatureCurve]:
     """Each open curve's end points that lie on another curve's interior
     split that curve there (a T-junction becomes a corner)."""
@@ -251,9 +285,7 @@ def _split_at_ends(curves: list[FeatureCurve], tol: float) -> list[FeatureCurve]
     a, b, owner = _segments(curves)
     index = np.concatenate([np.arange(len(c._ring) - 1) for c in curves])
     half = 0.5 * row_norms(b - a)
-    hits = cKDTree(0.5 * (a + b)).query_ball_point(e, float(half.max()) + tol)
-    k = np.repeat(np.arange(len(e)), [len(h) for h in hits])
-    seg = np.concatenate([np.asarray(h, np.int64) for h in hits])
+    k, seg = _near_points(e, a, b, tol)
     d, t = _point_segment(e[k], a[seg], b[seg])
     near = d <= tol
     k, seg, t = k[near], seg[near], t[near]
@@ -309,11 +341,7 @@ def _refuse_crossings(curves: list[FeatureCurve], tol: float) -> None:
         return
     index = np.concatenate([np.arange(len(c._ring) - 1) for c in curves])
     nseg = np.array([len(c._ring) - 1 for c in curves])
-    mid = 0.5 * (a + b)
-    half = 0.5 * row_norms(b - a)
-    tree = cKDTree(mid)
-    reach = 2.0 * float(half.max()) + tol
-    pairs = np.array(sorted(tree.query_pairs(reach)), dtype=np.int64).reshape(-1, 2)
+    pairs = _near_segments(a, b, tol)
     if len(pairs) == 0:
         return
     i, j = pairs[:, 0], pairs[:, 1]

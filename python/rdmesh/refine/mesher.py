@@ -384,7 +384,7 @@ def _result(
                 boundary=plan.boundary if m.clipped else None,
                 quick=bool(stop and stop.startswith("time_limit")),
             )
-        mesh.report["features"] = None if mesh.features is None else mesh.features.as_report()
+        mesh.report["features"] = _features_report(mesh, plan)
         if m.creases is not None:
             mesh.report["creases"] = m.creases.as_report()
     except KeyboardInterrupt:
@@ -429,6 +429,9 @@ def _result(
     if stop:
         mesh.complete = False
         mesh.stats["stop_reason"] = stop
+    elif plan.features_abandoned:
+        mesh.complete = False
+        mesh.stats["stop_reason"] = "feature curves not protected: " + plan.features_abandoned
     elif mesh.features is not None and not mesh.features.held:
         mesh.complete = False
         f = mesh.features
@@ -447,3 +450,13 @@ def _result(
             "violations without a refinement point)"
         )
     return mesh
+
+
+def _features_report(mesh: SurfaceMesh, plan: Plan) -> dict | None:
+    """``report["features"]``: the check's outcome, or why the curves rdmesh
+    found were left unprotected (their creases then cut by triangles)."""
+    if mesh.features is not None:
+        return mesh.features.as_report()
+    if plan.features_abandoned:
+        return {"held": False, "abandoned": plan.features_abandoned, "balls": 0}
+    return None

@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
 from ..creases.search import CreaseSearch
-from ..features import Balls, FeatureGraph, protect
+from ..features import Balls, FeatureError, FeatureGraph, protect
 from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
 from ..sampling.components import find_components
 from ..sampling.critical import CriticalPoints, critical_points
@@ -73,6 +73,8 @@ class Plan:
     #: The feature curves, and their protecting balls (inserted before the seeds).
     features: FeatureGraph | None = None
     balls: Balls | None = None
+    #: Why curves rdmesh found could not be protected (then features is None).
+    features_abandoned: str | None = None
 
 
 def boissonnat_oudot(
@@ -101,37 +103,40 @@ def boissonnat_oudot(
     spacing = criteria.radius_bound if isinstance(criteria.radius_bound, float) else None
     clipped = topology == "manifold-with-boundary"
     scan, found = _scan(surface, rng, resolution, spacing, certify, clipped)
-    protecting = surface.features != "none"
     boundary = None
     if clipped:
         size = _boundary_spacing(surface, criteria)
         field = criteria.sizing if callable(criteria.radius_bound) else None
         boundary = boundary_curve(surface, size, criteria.distance_bound, resolution, field)
-        if len(boundary.points) and not protecting:
-            # Seeds in the band along the clipping surface could be boundary vertices.
-            inner = scan.seeds[depth(surface, scan.seeds) >= SEED_BAND * size]
-            seeds = np.concatenate([boundary.points, _away(inner, boundary.points, 0.5 * size)])
-            scan = GridScan(seeds, scan.crossings, scan.spacing)
-    graph, balls = None, None
-    if protecting:
-        graph = feature_graph(
-            surface, boundary=boundary if clipped else None,
-            volume_curve=_volume_box_curve(surface, criteria, resolution), creases=creases,
-        )  # fmt: skip
-        if not graph.empty:
-            check_on_surface(surface, graph.curves)
-            size = _edge_sizing(surface, criteria, edge_size)
-            sheets = (scan.crossings, unit_normals(surface, scan.crossings))
-            balls = protect(graph, size, surface.radius, sheets,
-                            distance=criteria.distance_bound, shrink=shrink)  # fmt: skip
+    graph, balls, abandoned = None, None, None
+    if surface.features != "none":
+        volume_curve = _volume_box_curve(surface, criteria, resolution)
+        try:
+            graph = feature_graph(
+                surface, boundary=boundary if clipped else None, volume_curve=volume_curve,
+                creases=creases,
+            )  # fmt: skip
+            if not graph.empty:
+                balls = _protect(surface, criteria, graph, scan, edge_size, shrink)
+        except FeatureError as exc:
+            if isinstance(surface.features, list) and len(surface.features):
+                raise
+            # Curves rdmesh found itself (clip boundary, volume box, a mesh's
+            # sharp edges, an expression's creases): mesh without them, as
+            # features="none", and say so.
+            log.warning("feature curves not protected, meshed without them: %s", exc)
+            graph, abandoned = None, str(exc)
+        if balls is not None:
             # A seed in a ball would be hidden, or a vertex next to a curve.
             scan = GridScan(scan.seeds[~balls.inside(scan.seeds, SEED_CLEARANCE)],
                             scan.crossings, scan.spacing)  # fmt: skip
-            log.info(
-                "features: %d curves, %d corners, %d protecting balls (radii %.3g to %.3g)",
-                len(graph.curves), len(graph.corners), len(balls), balls.radii.min(),
-                balls.radii.max(),
-            )  # fmt: skip
+    if clipped and balls is None and len(boundary.points):
+        # Unprotected: seeds in the band along the clipping surface could be
+        # boundary vertices, so the boundary's samples come first.
+        size = _boundary_spacing(surface, criteria)
+        inner = scan.seeds[depth(surface, scan.seeds) >= SEED_BAND * size]
+        seeds = np.concatenate([boundary.points, _away(inner, boundary.points, 0.5 * size)])
+        scan = GridScan(seeds, scan.crossings, scan.spacing)
     soft = _angle_only_at_boundary(surface, criteria) if clipped and balls is None else None
     stages: list[Stage] = [FacetStage("facet", core.BAD | core.TOPO, "unless-bad", soft)]
     if topology != "non-manifold":
@@ -152,7 +157,23 @@ def boissonnat_oudot(
         boundary=boundary,
         features=graph,
         balls=balls,
+        features_abandoned=abandoned,
     )
+
+
+def _protect(surface, criteria, graph, scan, edge_size, shrink) -> Balls:
+    """The protecting balls of ``graph`` (FeatureError when they would be
+    smaller than the floor)."""
+    check_on_surface(surface, graph.curves)
+    size = _edge_sizing(surface, criteria, edge_size)
+    sheets = (scan.crossings, unit_normals(surface, scan.crossings))
+    balls = protect(graph, size, surface.radius, sheets,
+                    distance=criteria.distance_bound, shrink=shrink)  # fmt: skip
+    log.info(
+        "features: %d curves, %d corners, %d protecting balls (radii %.3g to %.3g)",
+        len(graph.curves), len(graph.corners), len(balls), balls.radii.min(), balls.radii.max(),
+    )  # fmt: skip
+    return balls
 
 
 #: Seeds closer to a protecting ball than this, times its radius, are dropped.

@@ -121,27 +121,14 @@ class ImplicitSurface:
     evaluations: int = field(default=0, init=False)
 
     def __post_init__(self) -> None:
-        if not callable(self.f):
-            raise ValueError("f must be callable on an (N, 3) array")
-        if self.gradient is not None and not callable(self.gradient):
-            raise ValueError("gradient must be callable or None")
-        self.centre, self.radius = sphere(self.bounding_sphere)
-        self._lock = threading.Lock()
-        self.bounding_sphere = (self.centre, self.radius)
-        if self.clip_box is not None:
-            self.clip_box = box_in_sphere(self.clip_box, self.centre, self.radius, self.name)
-        self.features = _features(self.features, self.radius, self.f, self.name)
+        self.centre, self.radius, self.clip_box, self.features = _checked_fields(self)
+        self.bounding_sphere, self._lock = (self.centre, self.radius), threading.Lock()
 
     @classmethod
     def from_expression(
-        cls,
-        text: str,
-        bounding_sphere: tuple,
-        name: str | None = None,
-        *,
-        clip_box: ArrayLike | None = None,
-        features: Any = None,
-    ) -> ImplicitSurface:
+        cls, text: str, bounding_sphere: tuple, name: str | None = None, *,
+        clip_box: ArrayLike | None = None, features: Any = None,
+    ) -> ImplicitSurface:  # fmt: skip
         """The surface ``text = 0`` for an arithmetic expression in x, y and z.
 
         Parameters
@@ -175,78 +162,135 @@ class ImplicitSurface:
         ValueError
             A bad bounding sphere or clip box (see :class:`ImplicitSurface`).
         """
-        from .expressions import parse_expression
-
-        expr = parse_expression(text)
-        centre, radius = sphere(bounding_sphere)
-        step = GRADIENT_STEP * radius
-
-        def gradient(points: np.ndarray) -> np.ndarray:
-            return expr.gradient(points, step=step)
-
-        return cls(
-            expr, (centre, radius), gradient=gradient, name=name or expr.text, clip_box=clip_box,
-            features=features,
-        )  # fmt: skip
+        return _from_expression(cls, text, bounding_sphere, name, clip_box, features)
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """Evaluate ``f`` on ``(N, 3)`` points; returns ``(N,)`` float64."""
-        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
-        n = len(pts)
-        if n <= _CHUNK:
-            return self._evaluate(pts)
-        return np.concatenate([self._evaluate(pts[i : i + _CHUNK]) for i in range(0, n, _CHUNK)])
-
-    def _evaluate(self, pts: np.ndarray) -> np.ndarray:
-        n = len(pts)
-        with self._lock:
-            self.evaluations += n
-        try:
-            out = self.f(pts)
-        except Exception as exc:  # noqa: BLE001 - user code may raise anything
-            raise OracleError(f"the surface function raised {type(exc).__name__}: {exc}") from exc
-        try:
-            values = np.asarray(out, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise OracleError(f"the surface function returned non-numbers: {exc}") from exc
-        if values.shape != (n,):
-            raise OracleError(
-                f"the surface function must return shape ({n},) for {n} points, got {values.shape}"
-            )
-        bad = ~np.isfinite(values)
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise OracleError(
-                f"the surface function returned {values[i]} at {pts[i].tolist()} "
-                f"({int(bad.sum())} non-finite values in {n})"
-            )
-        return values
+        return _evaluate_in_chunks(self, points)
 
     def grad(self, points: np.ndarray) -> np.ndarray:
         """Gradient of ``f`` at ``(N, 3)`` points, analytic or by finite differences."""
-        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
-        n = len(pts)
-        if self.gradient is not None:
-            with self._lock:
-                self.evaluations += n
-            try:
-                g = np.asarray(self.gradient(pts), dtype=np.float64)
-            except Exception as exc:  # noqa: BLE001
-                raise OracleError(
-                    f"the gradient function raised {type(exc).__name__}: {exc}"
-                ) from exc
-            if g.shape != (n, 3) or not np.all(np.isfinite(g)):
-                raise OracleError(
-                    f"the gradient function must return {n} finite rows of 3, got {g.shape}"
-                )
-            return g
-        h = GRADIENT_STEP * self.radius
-        steps = np.eye(3) * h
-        probe = np.concatenate(
-            [pts[None, :, :] + steps[:, None, :], pts[None, :, :] - steps[:, None, :]]
+        return _evaluate_gradient(self, points)
+
+
+def _checked_fields(
+    surface: ImplicitSurface,
+) -> tuple[np.ndarray, float, np.ndarray | None, list[np.ndarray] | str]:
+    """The checked fields of a new ``surface``: the bounding sphere's centre and
+    radius, the clip box (a copy, or None) and the features (see :func:`_features`).
+
+    Raises
+    ------
+    ValueError
+        ``f`` or ``gradient`` not callable, a bad bounding sphere or clip box.
+    rdmesh.FeatureError
+        Bad feature curves.
+    """
+    if not callable(surface.f):
+        raise ValueError("f must be callable on an (N, 3) array")
+    if surface.gradient is not None and not callable(surface.gradient):
+        raise ValueError("gradient must be callable or None")
+    centre, radius = sphere(surface.bounding_sphere)
+    box = surface.clip_box
+    if box is not None:
+        box = box_in_sphere(box, centre, radius, surface.name)
+    return centre, radius, box, _features(surface.features, radius, surface.f, surface.name)
+
+
+def _from_expression(
+    cls: type[ImplicitSurface], text: str, bounding_sphere: tuple, name: str | None,
+    clip_box: ArrayLike | None, features: Any,
+) -> ImplicitSurface:  # fmt: skip
+    """:meth:`ImplicitSurface.from_expression`: ``cls`` made with the parsed
+    expression as ``f``, its forward-mode gradient, and the expression text as the
+    default name."""
+    from .expressions import parse_expression
+
+    expr = parse_expression(text)
+    centre, radius = sphere(bounding_sphere)
+    step = GRADIENT_STEP * radius
+
+    def gradient(points: np.ndarray) -> np.ndarray:
+        return expr.gradient(points, step=step)
+
+    return cls(
+        expr, (centre, radius), gradient=gradient, name=name or expr.text, clip_box=clip_box,
+        features=features,
+    )  # fmt: skip
+
+
+def _evaluate_in_chunks(surface: ImplicitSurface, points: np.ndarray) -> np.ndarray:
+    """``surface(points)``: ``f`` on ``(N, 3)`` points, at most ``_CHUNK`` at a time."""
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    n = len(pts)
+    if n <= _CHUNK:
+        return _evaluate(surface, pts)
+    return np.concatenate([_evaluate(surface, pts[i : i + _CHUNK]) for i in range(0, n, _CHUNK)])
+
+
+def _evaluate(surface: ImplicitSurface, pts: np.ndarray) -> np.ndarray:
+    """``surface.f`` on C-contiguous ``(n, 3)`` points, counted and checked: ``(n,)``.
+
+    Raises
+    ------
+    rdmesh.OracleError
+        ``f`` raised, or did not return ``n`` finite numbers.
+    """
+    n = len(pts)
+    with surface._lock:
+        surface.evaluations += n
+    try:
+        out = surface.f(pts)
+    except Exception as exc:  # noqa: BLE001 - user code may raise anything
+        raise OracleError(f"the surface function raised {type(exc).__name__}: {exc}") from exc
+    try:
+        values = np.asarray(out, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise OracleError(f"the surface function returned non-numbers: {exc}") from exc
+    if values.shape != (n,):
+        raise OracleError(
+            f"the surface function must return shape ({n},) for {n} points, got {values.shape}"
         )
-        v = self(probe.reshape(-1, 3)).reshape(2, 3, n)
-        return ((v[0] - v[1]) / (2 * h)).T
+    bad = ~np.isfinite(values)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise OracleError(
+            f"the surface function returned {values[i]} at {pts[i].tolist()} "
+            f"({int(bad.sum())} non-finite values in {n})"
+        )
+    return values
+
+
+def _evaluate_gradient(surface: ImplicitSurface, points: np.ndarray) -> np.ndarray:
+    """``surface.grad(points)``: the given gradient, counted and checked, or central
+    differences of ``f`` with step ``GRADIENT_STEP * radius``; ``(N, 3)``.
+
+    Raises
+    ------
+    rdmesh.OracleError
+        The gradient function raised, or did not return ``N`` finite rows of 3.
+    """
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    n = len(pts)
+    if surface.gradient is not None:
+        with surface._lock:
+            surface.evaluations += n
+        try:
+            g = np.asarray(surface.gradient(pts), dtype=np.float64)
+        except Exception as exc:  # noqa: BLE001
+            raise OracleError(f"the gradient function raised {type(exc).__name__}: {exc}") from exc
+        if g.shape != (n, 3) or not np.all(np.isfinite(g)):
+            raise OracleError(
+                f"the gradient function must return {n} finite rows of 3, got {g.shape}"
+            )
+        return g
+    h = GRADIENT_STEP * surface.radius
+    steps = np.eye(3) * h
+    probe = np.concatenate(
+        [pts[None, :, :] + steps[:, None, :], pts[None, :, :] - steps[:, None, :]]
+    )
+    v = surface(probe.reshape(-1, 3)).reshape(2, 3, n)
+    return ((v[0] - v[1]) / (2 * h)).T
 
 
 def _features(features: Any, radius: float, f: Any, name: str) -> list[np.ndarray] | str:

@@ -22,6 +22,7 @@ from scipy import ndimage
 from .._errors import EmptySurfaceError
 from .._validate import choice
 from ..core import VolumeSampler
+from ._volume_oracle import VolumeOracle
 from .oracle import ImplicitSurface
 from .trilinear import regular_isovalue
 
@@ -30,6 +31,9 @@ log = logging.getLogger("rdmesh")
 INSIDE = ("greater", "less")
 INTERPOLATIONS = ("cubic", "linear")
 BORDERS = ("closed", "clipped")
+#: The B-spline degree of each interpolation, and the sign of ``f`` for each inside.
+DEGREES = {"cubic": 3, "linear": 1}
+SIGNS = {"greater": 1.0, "less": -1.0}
 
 #: Smallest number of samples per axis for each interpolation.
 MIN_SAMPLES = {"cubic": 4, "linear": 2}
@@ -195,7 +199,7 @@ def _gradient_scale(volume: np.ndarray, isovalue: float, spacing: np.ndarray) ->
     return float(np.median(s)) if len(s) else 1.0
 
 
-class VolumeSurface(ImplicitSurface):
+class VolumeSurface(VolumeOracle, ImplicitSurface):
     """The isosurface ``v = isovalue`` of an interpolated 3-D volume, closed by its box.
 
     Parameters
@@ -317,89 +321,26 @@ class VolumeSurface(ImplicitSurface):
     """
 
     def __init__(
-        self,
-        volume: Any,
-        *,
-        spacing: Any = (1.0, 1.0, 1.0),
-        origin: Any = (0.0, 0.0, 0.0),
-        isovalue: float | None = None,
-        inside: str = "greater",
-        interpolation: str = "cubic",
-        border: str = "closed",
-        name: str = "volume",
-        features: Any = None,
-    ) -> None:
-        choice("inside", inside, INSIDE)
-        choice("interpolation", interpolation, INTERPOLATIONS)
-        choice("border", border, BORDERS)
-        data = _volume(volume, interpolation)
-        self.spacing = _three("spacing", spacing, positive=True)
-        self.origin = _three("origin", origin, positive=False)
-        lo, hi = float(data.min()), float(data.max())
-        if lo == hi:
-            raise EmptySurfaceError(f"the volume is constant ({lo:g}): it has no isosurface")
-        if isovalue is None:
-            isovalue = 0.5 * (lo + hi)
-        try:
-            iso = float(isovalue)
-        except (TypeError, ValueError):
-            raise ValueError(f"isovalue must be a number, got {isovalue!r}") from None
-        if not math.isfinite(iso):
-            raise ValueError(f"isovalue must be finite, got {isovalue!r}")
-        if not lo < iso < hi:
-            raise EmptySurfaceError(
-                f"isovalue {iso:g} is outside the range of the volume's data, "
-                f"({lo:g}, {hi:g}): there is no isosurface"
-            )
+        self, volume: Any, *, spacing: Any = (1.0, 1.0, 1.0), origin: Any = (0.0, 0.0, 0.0),
+        isovalue: float | None = None, inside: str = "greater", interpolation: str = "cubic",
+        border: str = "closed", name: str = "volume", features: Any = None,
+    ) -> None:  # fmt: skip
+        self.inside, self.interpolation, self.border = _options(inside, interpolation, border)
+        data, self.spacing, self.origin = _samples(volume, spacing, origin, interpolation)
         #: The isovalue asked for; ``isovalue`` is the one meshed (linear: off saddle values).
-        self.requested_isovalue = iso
-        if interpolation == "linear":
-            iso = regular_isovalue(data, iso, inside)
-            if iso != self.requested_isovalue:
-                log.warning(
-                    "isovalue %g is a saddle value of the trilinear interpolant (its "
-                    "isosurface pinches to a point there): meshing %g instead",
-                    self.requested_isovalue,
-                    iso,
-                )
-        self.isovalue = iso
-        self.inside = inside
-        self.interpolation = interpolation
-        self.border = border
-        self.shape = data.shape
-        self.degree = 3 if interpolation == "cubic" else 1
-        self.value_scale = _gradient_scale(data, iso, self.spacing)
-        self._sign = 1.0 if inside == "greater" else -1.0
-        if self.degree == 3:
-            data = ndimage.spline_filter(data, order=3, mode="mirror", output=np.float64)
-        # The sampler keeps its own copy of the coefficients; this one is dropped.
+        self.requested_isovalue, self.isovalue = _isovalues(data, isovalue, interpolation, inside)
+        self.shape, self.degree, self._sign = data.shape, DEGREES[interpolation], SIGNS[inside]
+        self.value_scale = _gradient_scale(data, self.isovalue, self.spacing)
+        data = _coefficients(data, self.degree)  # the samples are dropped here
         self._sampler = VolumeSampler(data, self.degree, self.origin, self.spacing)
-        del data
-        extent = (np.asarray(self.shape) - 1) * self.spacing
-        self.box = np.array([self.origin, self.origin + extent])
-        centre = 0.5 * (self.box[0] + self.box[1])
-        radius = SPHERE_MARGIN * 0.5 * float(np.linalg.norm(extent))
+        del data  # the sampler keeps its own copy of the coefficients
+        self.box, ball = _box_and_sphere(self.shape, self.origin, self.spacing)
         log.debug(
             "volume %s, spacing %s, isovalue %g, %s interpolation, value scale %g",
-            self.shape,
-            self.spacing.tolist(),
-            iso,
-            interpolation,
-            self.value_scale,
-        )
-        if border == "clipped":
-            super().__init__(
-                self.f_volume,
-                (centre, radius),
-                gradient=self._volume_gradient,
-                name=name,
-                clip_box=self.box,
-                features=features,
-            )
-        else:
-            super().__init__(
-                self._f, (centre, radius), gradient=self._gradient, name=name, features=features
-            )
+            self.shape, self.spacing.tolist(), self.isovalue, interpolation, self.value_scale,
+        )  # fmt: skip
+        f, grad, clip_box = self._border_oracle()
+        super().__init__(f, ball, gradient=grad, name=name, clip_box=clip_box, features=features)
 
     def __repr__(self) -> str:
         return (
@@ -409,70 +350,97 @@ class VolumeSurface(ImplicitSurface):
             f"border={self.border!r})"
         )
 
-    # -- the interpolant ------------------------------------------------------------
 
-    def values(self, points: np.ndarray) -> np.ndarray:
-        """The interpolated data value ``v`` at ``(N, 3)`` points, ``(N,)``.
+def _options(inside: str, interpolation: str, border: str) -> tuple[str, str, str]:
+    """``inside``, ``interpolation`` and ``border``, checked.
 
-        Points outside the box get the value at the nearest point of the box.
-        """
-        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
-        return self._sampler.sample(pts, False)[0]
+    Raises
+    ------
+    ValueError
+        An unknown option (the message lists the known ones).
+    """
+    choice("inside", inside, INSIDE)
+    choice("interpolation", interpolation, INTERPOLATIONS)
+    choice("border", border, BORDERS)
+    return inside, interpolation, border
 
-    def value_gradients(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The interpolated value ``(N,)`` and its exact gradient ``(N, 3)``.
 
-        Outside the box the gradient is that of the nearest point of the box,
-        without the components that point out of it.
-        """
-        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
-        return self._sampler.sample(pts, True)
+def _samples(
+    volume: Any, spacing: Any, origin: Any, interpolation: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The volume (C-contiguous float64), the spacing and the origin, checked.
 
-    def f_volume(self, points: np.ndarray) -> np.ndarray:
-        """``f`` without the box: ``(isovalue - v) / value_scale``, sign per ``inside``."""
-        return (self.isovalue - self.values(points)) * (self._sign / self.value_scale)
+    Raises
+    ------
+    ValueError
+        A bad volume, spacing or origin (see :class:`VolumeSurface`).
+    """
+    data = _volume(volume, interpolation)
+    spacing = _three("spacing", spacing, positive=True)
+    return data, spacing, _three("origin", origin, positive=False)
 
-    def box_distance(self, points: np.ndarray) -> np.ndarray:
-        """Signed distance to the box, negative inside, ``(N,)``."""
-        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        q = np.maximum(self.box[0] - pts, pts - self.box[1])  # > 0 outside that slab
-        d_in = q.max(axis=1)
-        np.maximum(q, 0.0, out=q)
-        return np.sqrt(np.einsum("ij,ij->i", q, q)) + np.minimum(d_in, 0.0)
 
-    def box_gradient(self, points: np.ndarray) -> np.ndarray:
-        """Gradient of :meth:`box_distance`, ``(N, 3)``: on and inside the box, the
-        outward normal of the nearest face."""
-        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        below = self.box[0] - pts
-        above = pts - self.box[1]
-        q = np.maximum(below, above)
-        sign = np.where(above > below, 1.0, -1.0)
-        out = np.maximum(q, 0.0)
-        norm = np.linalg.norm(out, axis=1)
-        g = out * sign / np.maximum(norm, 1e-300)[:, None]
-        rows = np.flatnonzero(norm == 0.0)  # on or inside the box
-        axis = np.argmax(q[rows], axis=1)
-        g[rows] = 0.0
-        g[rows, axis] = sign[rows, axis]
-        return g
+def _isovalues(
+    data: np.ndarray, isovalue: float | None, interpolation: str, inside: str
+) -> tuple[float, float]:
+    """The isovalue asked for (default the middle of the data's range) and the one meshed.
 
-    # -- the oracle -----------------------------------------------------------------
+    With linear interpolation the one meshed is moved off the trilinear
+    interpolant's saddle values (:func:`~rdmesh.surfaces.trilinear.regular_isovalue`),
+    with a warning; otherwise it is the one asked for.
 
-    def _f(self, points: np.ndarray) -> np.ndarray:
-        return np.maximum(self.f_volume(points), self.box_distance(points))
+    Raises
+    ------
+    ValueError
+        An isovalue that is not a finite number.
+    rdmesh.EmptySurfaceError
+        A constant volume, or an isovalue outside the open range of the data.
+    """
+    lo, hi = float(data.min()), float(data.max())
+    if lo == hi:
+        raise EmptySurfaceError(f"the volume is constant ({lo:g}): it has no isosurface")
+    if isovalue is None:
+        isovalue = 0.5 * (lo + hi)
+    try:
+        iso = float(isovalue)
+    except (TypeError, ValueError):
+        raise ValueError(f"isovalue must be a number, got {isovalue!r}") from None
+    if not math.isfinite(iso):
+        raise ValueError(f"isovalue must be finite, got {isovalue!r}")
+    if not lo < iso < hi:
+        raise EmptySurfaceError(
+            f"isovalue {iso:g} is outside the range of the volume's data, "
+            f"({lo:g}, {hi:g}): there is no isosurface"
+        )
+    requested = iso
+    if interpolation == "linear":
+        iso = regular_isovalue(data, iso, inside)
+        if iso != requested:
+            log.warning(
+                "isovalue %g is a saddle value of the trilinear interpolant (its "
+                "isosurface pinches to a point there): meshing %g instead",
+                requested,
+                iso,
+            )
+    return requested, iso
 
-    def _volume_gradient(self, points: np.ndarray) -> np.ndarray:
-        """Gradient of :meth:`f_volume` (the clipped border's ``f``)."""
-        _, gv = self.value_gradients(points)
-        gv *= -self._sign / self.value_scale
-        return gv
 
-    def _gradient(self, points: np.ndarray) -> np.ndarray:
-        v, gv = self.value_gradients(points)
-        k = self._sign / self.value_scale
-        fv = (self.isovalue - v) * k
-        gv *= -k
-        box = self.box_distance(points) > fv
-        gv[box] = self.box_gradient(points[box])
-        return gv
+def _coefficients(data: np.ndarray, degree: int) -> np.ndarray:
+    """The B-spline coefficients of ``degree`` through the samples ``data``: for cubic,
+    prefiltered with ``scipy.ndimage.spline_filter`` (mirror boundary); for linear,
+    the samples themselves."""
+    if degree == 3:
+        return ndimage.spline_filter(data, order=3, mode="mirror", output=np.float64)
+    return data
+
+
+def _box_and_sphere(
+    shape: tuple[int, ...], origin: np.ndarray, spacing: np.ndarray
+) -> tuple[np.ndarray, tuple[np.ndarray, float]]:
+    """The box of the samples, ``(2, 3)``, and the bounding sphere ``(centre, radius)``:
+    the sphere about the box, enlarged by ``SPHERE_MARGIN``."""
+    extent = (np.asarray(shape) - 1) * spacing
+    box = np.array([origin, origin + extent])
+    centre = 0.5 * (box[0] + box[1])
+    radius = SPHERE_MARGIN * 0.5 * float(np.linalg.norm(extent))
+    return box, (centre, radius)

@@ -1,0 +1,190 @@
+"""The oracle half of :class:`~rdmesh.MeshSurface`: distance, sign, gradient and
+winding number of a triangle mesh.
+
+:class:`MeshQueries` holds the C++ ``MeshDistance`` (CGAL's ``AABB_tree``, the
+pseudo-normal and ray-casting side tests and the winding number, the GIL
+released) and a k-d tree of the vertices that skips the exact query far from
+the mesh. What ``f``, its sign and its gradient are: the notes of
+:class:`~rdmesh.MeshSurface`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .._errors import MeshInputError
+from ..core import MeshDistance
+from ._mesh_input import is_closed_oriented, orient_normals, winding_ambiguity
+
+#: Below this distance (times the bounding radius) the gradient is the normal
+#: of the closest face: there ``p - closest`` is too short to give a direction.
+NORMAL_DISTANCE = 1e-9
+#: Open meshes: f = clip(WINDING_SLOPE * (1 - 2 w), -1, 1) * distance, so the
+#: sign follows the winding number w thresholded at 0.5, and f stays
+#: continuous across the band |w - 0.5| < 1 / (2 WINDING_SLOPE) that spans
+#: each hole.
+WINDING_SLOPE = 4.0
+#: f is the signed distance clamped to +-DISTANCE_CAP x the bounding radius:
+#: points certainly farther (by a k-d tree of the vertices) skip the exact
+#: query, which is slowest there (near the medial axis many faces are almost
+#: equally far). The zero set and f within the cap are unchanged.
+DISTANCE_CAP = 0.1
+#: Points evaluated per call of the C++ core (bounds the temporary arrays).
+_CHUNK = 1 << 18
+
+
+def _points(points: np.ndarray) -> np.ndarray:
+    """Query points as a C-contiguous (N, 3) float64 array, checked finite."""
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    bad = ~np.isfinite(pts).all(axis=1)
+    if bad.any():
+        raise ValueError(f"query point {int(np.argmax(bad))} is not finite")
+    return pts
+
+
+class MeshQueries:
+    """The signed distance to a mesh, its gradient, closest points and winding number.
+
+    A base of :class:`~rdmesh.MeshSurface`, which sets ``vertices``, ``faces``
+    and ``_normals`` (the oriented mesh and its unit face normals), then calls
+    :meth:`_start_queries` (the C++ core ``_core``, ``cap``, the k-d tree) and
+    :meth:`_set_sign` (``sign_method`` and the attributes that follow from it);
+    ``radius`` comes from :class:`~rdmesh.ImplicitSurface`. ``_signed_distance``
+    (clamped) and ``_gradient`` are the surface's ``f`` and gradient.
+    """
+
+    def _start_queries(self, radius: float) -> None:
+        """Build the C++ ``MeshDistance`` and the k-d tree; ``cap`` from ``radius``.
+
+        Raises
+        ------
+        rdmesh.MeshInputError
+            The C++ core refuses the mesh.
+        """
+        v, f = self.vertices, self.faces
+        try:
+            self._core = MeshDistance(v, f, side=is_closed_oriented(f))
+        except ValueError as exc:
+            raise MeshInputError(str(exc)) from None
+        self.cap = DISTANCE_CAP * radius
+        edges = np.linalg.norm(v[f] - v[np.roll(f, 1, axis=1)], axis=2)
+        # Every point of the mesh is within this of a vertex (a face's
+        # circumradius or half its longest edge, both <= longest edge / sqrt 3).
+        self._vertex_gap = float(edges.max()) / np.sqrt(3.0)
+        self._kdtree = cKDTree(v)
+
+    def _set_sign(self, norms: np.ndarray) -> None:
+        """Choose how inside is told from outside (``sign_method``, ``ambiguous_share``,
+        ``lipschitz``, ``unit_gradient``), then turn the face normals to the outside.
+
+        Raises
+        ------
+        rdmesh.MeshInputError
+            The mesh is too open to tell inside from outside.
+        """
+        #: f is this-Lipschitz (the clamped signed distance), or None (winding sign).
+        self.lipschitz: float | None = None
+        #: The gradient is a unit vector wherever f is differentiable.
+        self.unit_gradient = False
+        v, f = self.vertices, self.faces
+        if self._core.has_side:
+            self.sign_method = "side"
+            self.ambiguous_share = 0.0
+            self.lipschitz, self.unit_gradient = 1.0, True
+        else:
+            self.sign_method = "winding"
+            self.ambiguous_share = winding_ambiguity(self._core, v, f, self._normals, norms)
+        orient_normals(v, f, self._normals, norms, self._sign)
+
+    def _query(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Distance, closest point, closest face and sign factor s in [-1, 1]."""
+        parts = [self._core.query(pts[i : i + _CHUNK]) for i in range(0, len(pts), _CHUNK)]
+        if len(parts) == 1:
+            dist, closest, face, side = parts[0]
+        else:
+            dist, closest, face, side = (np.concatenate(x) for x in zip(*parts, strict=True))
+        s = side.astype(np.float64) if self.sign_method == "side" else self._winding_factor(pts)
+        return dist, closest, face, s
+
+    def _winding_factor(self, pts: np.ndarray) -> np.ndarray:
+        w = np.concatenate(
+            [self._core.winding_number(pts[i : i + _CHUNK]) for i in range(0, len(pts), _CHUNK)]
+        )
+        return np.clip(WINDING_SLOPE * (1.0 - 2.0 * w), -1.0, 1.0)
+
+    def _signed_distance(self, points: np.ndarray) -> np.ndarray:
+        pts = _points(points)
+        if len(pts) == 0:
+            return np.zeros(0)
+        # Farther than cap + gap from every vertex means farther than cap from the mesh.
+        dv, _ = self._kdtree.query(
+            pts, distance_upper_bound=self.cap + self._vertex_gap, workers=-1
+        )
+        near = np.flatnonzero(np.isfinite(dv))
+        far = np.flatnonzero(~np.isfinite(dv))
+        out = np.empty(len(pts))
+        if len(near):
+            dist, _, _, s = self._query(pts[near])
+            out[near] = s * np.minimum(dist, self.cap)
+        if len(far):
+            out[far] = self.cap * self._sign(pts[far])
+        return out
+
+    def _sign(self, pts: np.ndarray) -> np.ndarray:
+        if self.sign_method == "side":
+            return np.concatenate(
+                [self._core.side(pts[i : i + _CHUNK]) for i in range(0, len(pts), _CHUNK)]
+            ).astype(np.float64)
+        return self._winding_factor(pts)
+
+    def _gradient(self, points: np.ndarray) -> np.ndarray:
+        pts = _points(points)
+        if len(pts) == 0:
+            return np.zeros((0, 3))
+        dist, closest, face, s = self._query(pts)
+        near = dist <= NORMAL_DISTANCE * self.radius
+        g = np.empty_like(pts)
+        far = ~near
+        # Outside s = 1 and p - closest points out; inside s = -1 and it points in.
+        g[far] = np.sign(s[far])[:, None] * (pts[far] - closest[far]) / dist[far, None]
+        g[near] = self._normals[face[near]]
+        band = far & (np.abs(s) < 1.0)
+        if band.any():
+            # Open meshes, across a hole: f = s(w) d, so grad f = s grad d + d grad s,
+            # with grad s from central differences of w (smooth there: no face within d).
+            p, d = pts[band], dist[band]
+            h = np.clip(0.1 * d, NORMAL_DISTANCE * self.radius, 1e-4 * self.radius)
+            step = h[None, :, None] * np.eye(3)[:, None, :]
+            probes = np.concatenate([p[None] + step, p[None] - step])
+            sw = self._winding_factor(probes.reshape(-1, 3)).reshape(2, 3, -1)
+            grad_s = ((sw[0] - sw[1]) / (2 * h)).T
+            unit = (p - closest[band]) / d[:, None]
+            g[band] = s[band, None] * unit + d[:, None] * grad_s
+        return g
+
+    def signed_distance(self, points: np.ndarray) -> np.ndarray:
+        """Signed distance to the mesh at ``(N, 3)`` points: ``(N,)``, negative inside.
+
+        Not clamped (``f``, the oracle, is clamped to ``+-cap``). For meshes
+        whose sign comes from the winding number, the distance times
+        ``clip(4 (1 - 2w), -1, 1)`` (see the class notes).
+        """
+        pts = _points(points)
+        if len(pts) == 0:
+            return np.zeros(0)
+        dist, _, _, s = self._query(pts)
+        return s * dist
+
+    def closest_points(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Closest points on the mesh ``(N, 3)`` and the faces they lie on ``(N,)``."""
+        pts = _points(points)
+        if len(pts) == 0:
+            return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+        _, closest, face, _ = self._query(pts)
+        return closest, face
+
+    def winding_number(self, points: np.ndarray) -> np.ndarray:
+        """Generalized winding number of the mesh at ``(N, 3)`` points: ``(N,)``."""
+        pts = _points(points)
+        return self._core.winding_number(pts)

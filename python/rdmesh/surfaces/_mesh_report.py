@@ -1,0 +1,116 @@
+"""What in a :class:`~rdmesh.MeshSurface`'s input stands in the way of its topology.
+
+:class:`MeshReport` finds where the input intersects itself (CGAL's
+``self_intersections``, for closed manifold inputs) and, after a run, where two
+sheets of the input are closer than refinement can separate; both go into the
+mesh's report (``report["input"]``).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from .._regions import describe_regions, regions
+from .._tol import REGION_LINK
+
+log = logging.getLogger("rdmesh")
+
+#: Two sheets closer than this (times R) where points were refused are reported.
+CLOSE_SHEETS = 0.02
+#: Probes along the normal that measure the gap between sheets.
+GAP_SAMPLES = 64
+
+
+class MeshReport:
+    """Self-intersections and close sheets of a mesh, for the mesh's report.
+
+    A base of :class:`~rdmesh.MeshSurface` (after
+    :class:`~rdmesh.surfaces._mesh_queries.MeshQueries`, whose queries it uses).
+    """
+
+    def _find_self_intersections(self) -> None:
+        """``self_intersections``: the pairs of faces that cross (CGAL's
+        Polygon_mesh_processing::self_intersections), for closed manifold inputs."""
+        self.self_intersections = self._core.self_intersections()
+        if len(self.self_intersections):
+            where = self.vertices[self.faces[self.self_intersections[:, 0]]].mean(axis=1)
+            log.warning(
+                "MeshSurface: the mesh intersects itself (%d pairs of faces cross, %s); "
+                "its topology is not that of a surface: the remesh follows the union of "
+                "what it encloses (winding number) and is marked incomplete",
+                len(self.self_intersections),
+                describe_regions(regions(where, REGION_LINK * float(np.ptp(self.vertices)))),
+            )
+
+    def input_report(self, unresolved: np.ndarray | None = None) -> dict | None:
+        """What in the input stands in the way of its topology, for the mesh's report.
+
+        Parameters
+        ----------
+        unresolved : (k, 3) array, optional
+            The run's refused refinement points: where two sheets of the
+            input are closer than refinement can separate, the gap is
+            measured there.
+
+        Returns
+        -------
+        dict or None
+            ``self_intersections`` (``pairs``, ``regions``) when the input
+            intersects itself, ``close_sheets`` (``gap``, ``regions``) when
+            refused points lie where two sheets of the input nearly touch,
+            ``incomplete`` (the input alone rules out its topology) and a
+            ``statement``; None when there is nothing to say.
+        """
+        out: dict = {"incomplete": False}
+        said = []
+        pairs = self.self_intersections
+        if len(pairs):
+            where = self.vertices[self.faces[pairs[:, 0]]].mean(axis=1)
+            found = regions(where, REGION_LINK * self.radius)
+            out["self_intersections"] = {"pairs": len(pairs), "regions": found}
+            out["incomplete"] = True
+            said.append(
+                f"the input mesh intersects itself ({len(pairs)} pairs of faces cross, "
+                f"{describe_regions(found)}): it bounds no solid with its topology, so the "
+                "remesh (of the union it encloses, by the winding number) cannot keep it"
+            )
+        if unresolved is not None and len(unresolved):
+            gap = self.sheet_gap(unresolved)
+            close = gap < CLOSE_SHEETS * self.radius
+            if close.any():
+                found = regions(unresolved[close], REGION_LINK * self.radius)
+                out["close_sheets"] = {
+                    "points": int(close.sum()),
+                    "gap": float(np.median(gap[close])),
+                    "regions": found,
+                }
+                said.append(
+                    f"two sheets of the input nearly touch where {int(close.sum())} refinement "
+                    f"points were refused (median gap {np.median(gap[close]):.3g}, "
+                    f"{describe_regions(found)}): closer than the spacing floor lets "
+                    "refinement separate them"
+                )
+        if not said:
+            return None
+        out["statement"] = "; ".join(said)
+        return out
+
+    def sheet_gap(self, points: np.ndarray) -> np.ndarray:
+        """Distance across the thinnest part (inside or outside) of the input at
+        points on it, ``(k,)``: twice the distance from the point to the
+        medial axis along the closest face's normal, sampled up to
+        ``CLOSE_SHEETS * R`` (that value where it is farther)."""
+        closest, face = self.closest_points(points)
+        n = self._normals[face]
+        t = np.linspace(0.0, CLOSE_SHEETS * self.radius, GAP_SAMPLES + 1)[1:]
+        gaps = []
+        for sign in (1.0, -1.0):
+            probe = closest[None] + sign * t[:, None, None] * n[None]
+            d = np.abs(self.signed_distance(probe.reshape(-1, 3))).reshape(len(t), -1)
+            # Beyond the medial axis the distance falls below the probe's offset.
+            behind = d < t[:, None] * (1 - 1e-6)
+            first = np.where(behind.any(axis=0), np.argmax(behind, axis=0), len(t) - 1)
+            gaps.append(2.0 * t[first])
+        return np.minimum(*gaps)
