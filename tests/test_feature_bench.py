@@ -350,6 +350,22 @@ def test_features_script_on_its_input_rows(tmp_path):
     assert rec["cases"]["box_with_hole"]["radius"] == pytest.approx(0.02)
 
 
+def test_features_script_finds_the_lens_circle(tmp_path):
+    cmd = [sys.executable, str(BENCH / "features.py"), "--cases", "lens"]
+    cmd += ["--meshers", "rdmesh_found", "--out", str(tmp_path)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+    assert proc.returncode == 0, proc.stderr
+    import json
+
+    (path,) = tmp_path.glob("features-*.json")
+    (run,) = json.loads(path.read_text())["runs"]
+    assert run["status"] == "ok", run.get("error")
+    assert run["info"]["found"]["curves"] == 1 and run["info"]["found"]["closed"] == 1
+    m = run["metrics"]
+    assert m["coverage"] == pytest.approx(1.0) and m["topology"]["euler"] == 2
+    assert m["crease_vertices"]["count"] > 0 and m["crease_vertices"]["max_distance"] < 1e-12
+
+
 # ---------------------------------------------------------------------------
 # The CGAL reference's features modes (slow: builds it)
 # ---------------------------------------------------------------------------
