@@ -55,9 +55,9 @@ Protected 1D features (issue 27):
   line.  Polylines may meet only at their end points (CGAL 5.5 crashes
   otherwise, CGAL #7356): split them at shared interior points before writing
   (``write_polylines`` refuses a point shared with another polyline's
-  interior, the program too).  ``FEATURE_SURFACES`` (``box``, ``box_ball``)
-  are the surfaces with creases; ``cad_shapes.box_curves`` and
-  ``box_ball_curves`` are their curves.
+  interior, the program too).  ``FEATURE_SURFACES`` are the surfaces with
+  creases: ``box`` and ``box_ball`` (their curves ``cad_shapes.box_curves``
+  and ``box_ball_curves``) and the shapes of ``crease_shapes`` (issue 28).
 - ``mesh_3_polyhedron``: make_mesh_3 on
   ``Polyhedral_mesh_domain_with_features_3`` of a closed triangle mesh (OFF,
   ``write_off``) after ``detect_features(feature_angle)``:
@@ -139,8 +139,11 @@ FEATURE_MESHERS = ("mesh_3_features", "mesh_3_polyhedron")
 
 #: Surfaces with creases, for ``mesh_3_features`` (any mesher of SURFACES
 #: meshes them too): the cube ``max(|x|,|y|,|z|) - 1`` and its union with the
-#: ball of radius 0.8 about (1, 1, 1).
-FEATURE_SURFACES = ("box", "box_ball")
+#: ball of radius 0.8 about (1, 1, 1); the shapes of ``crease_shapes``
+#: (issue 28: a rotated cube, a cylinder, a lens, a dimpled and a holed cube).
+FEATURE_SURFACES = (
+    "box", "box_ball", "box_rotated", "cylinder", "lens", "box_dimple", "box_hole",
+)  # fmt: skip
 
 #: How ``mesh_3_image`` finds its initial points.
 IMAGE_INITS = ("random", "components")
@@ -168,6 +171,11 @@ BOUNDING_SPHERES = {
     "blob_line": ((0.0, 0.0, 0.0), 2.0),
     "box": ((0.0, 0.0, 0.0), 2.0),
     "box_ball": ((0.2, 0.2, 0.2), 2.4),
+    "box_rotated": ((0.0, 0.0, 0.0), 2.0),
+    "cylinder": ((0.0, 0.0, 0.0), 2.0),
+    "lens": ((0.0, 0.0, 0.0), 1.5),
+    "box_dimple": ((0.0, 0.0, 0.0), 2.0),
+    "box_hole": ((0.75, 0.0, 0.0), 2.5),
 }
 
 # Keys every successful run prints.

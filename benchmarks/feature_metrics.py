@@ -69,6 +69,7 @@ from scipy.spatial import cKDTree
 
 __all__ = [
     "Arc",
+    "Circle",
     "Curve",
     "Polyline",
     "Segment",
@@ -223,6 +224,44 @@ class Arc:
     def sagitta(self, n: int) -> float:
         """Largest distance between the arc and its ``n``-chord sample."""
         return self.radius * (1.0 - np.cos(self.sweep / (2 * n)))
+
+
+@dataclass(frozen=True)
+class Circle:
+    """The whole circle about ``centre`` of ``radius`` in the plane normal to
+    ``normal`` (a closed curve: an edge across any point of it is on it)."""
+
+    centre: tuple[float, float, float]
+    radius: float
+    normal: tuple[float, float, float]
+    closed: bool = True
+
+    def _frame(self):
+        n = np.asarray(self.normal, float)
+        n = n / np.linalg.norm(n)
+        u = np.cross(n, np.eye(3)[int(np.argmin(np.abs(n)))])
+        u /= np.linalg.norm(u)
+        return np.asarray(self.centre, float), n, u, np.cross(n, u)
+
+    @property
+    def length(self) -> float:
+        return 2 * np.pi * self.radius
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Exact distance to the circle and the arc length of the nearest point."""
+        c, n, u, v = self._frame()
+        q = _points(points) - c
+        x, y = q @ u, q @ v
+        dist = np.hypot(q @ n, np.hypot(x, y) - self.radius)
+        return dist, (np.arctan2(y, x) % (2 * np.pi)) * self.radius
+
+    def sample(self, n: int) -> np.ndarray:
+        """``n + 1`` points at equal angles, the last one the first (``n`` chords)."""
+        c, _, u, v = self._frame()
+        t = np.linspace(0.0, 2 * np.pi, n + 1)[:, None]
+        out = c + self.radius * (np.cos(t) * u + np.sin(t) * v)
+        out[-1] = out[0]
+        return out
 
 
 class Polyline:

@@ -13,6 +13,16 @@ Cases (``CASES``):
   closed CAD meshes of ``cad_shapes`` to remesh, their sharp edges to be
   found by the mesher (feature angle 60); ``fillet_chamfer@40`` is the last
   one with feature angle 40, which finds its chamfer's two 45-degree creases.
+- ``box_rotated``, ``cylinder``, ``lens``, ``box_dimple``, ``box_hole``
+  (issue 28, ``crease_shapes``): expressions (``box_hole``: a
+  ``rdmesh.csg.difference`` of two numpy callables) whose creases rdmesh
+  finds by itself; given to the other meshers as polylines (circles as
+  closed polylines of 512 chords, sagitta 1.9e-5 for a unit circle).
+
+The ``rdmesh_found`` mesher meshes every implicit case from its expression
+(or CSG tree) with nothing given: ``features="auto"`` finds the creases
+(issue 28). Its rows add the curves and corners found, the search's seconds
+and the places it left unresolved.
 
 Settings: implicit cases angle 30, radius bound 0.1, distance bound 0.01,
 edge size 0.1 (Mesh_3's oracle error bound 1e-8, as the design note's
@@ -79,6 +89,7 @@ sys.path.insert(0, str(HERE))
 
 import cad_shapes  # noqa: E402
 import cgal_runner  # noqa: E402
+import crease_shapes  # noqa: E402
 import feature_metrics as fm  # noqa: E402
 import record  # noqa: E402
 from meshfile import read_off  # noqa: E402
@@ -110,6 +121,8 @@ class Case:
     description: str = ""
     # implicit cases
     surface: str | None = None
+    expression: str | None = None  # what rdmesh_found meshes (issue 28)
+    csg: Callable[[], Any] | None = None  # or this rdmesh surface
     f: Callable[[np.ndarray], np.ndarray] | None = None
     sdf: Callable[[np.ndarray], np.ndarray] | None = None
     bounding_sphere: tuple | None = None
@@ -152,7 +165,23 @@ def _implicit_case(name: str, curves, corners, f, sdf, tol: float, description: 
         bounding_sphere=cgal_runner.BOUNDING_SPHERES[name],
         polylines=cad_shapes.curve_polylines(curves, arc_segments=64),
         error_bound=1e-8,
+        expression=crease_shapes.EXPRESSIONS.get(name),
     )
+
+
+def _found_case(name: str) -> Case:
+    """A shape of ``crease_shapes``: tol 1e-4 with circles (above their
+    polylines' sagitta), else 1e-6 times the diagonal."""
+    shape = crease_shapes.SHAPES[name]()
+    circles = any(isinstance(c, fm.Circle) for c in shape.curves)
+    case = _implicit_case(
+        name, shape.curves, shape.corners, shape.f, shape.sdf,
+        1e-4 if circles else 1e-6 * np.sqrt(12.0), shape.description,
+    )  # fmt: skip
+    case.polylines = crease_shapes.polylines(shape.curves)
+    case.expression, case.csg = shape.expression, shape.csg
+    case.expected_genus = shape.genus
+    return case
 
 
 def _mesh_case(name: str, shape_name: str, feature_angle: float, cad_size: float) -> Case:
@@ -256,6 +285,7 @@ def build_cases(cad_size: float = 0.01) -> dict[str, Callable[[], Case]]:
             "fillet_chamfer@40", "fillet_chamfer", 40.0, cad_size
         ),
         "volume_ball": _volume_case,
+        **{name: (lambda name=name: _found_case(name)) for name in crease_shapes.SHAPES},
     }
 
 
@@ -404,6 +434,8 @@ def _rdmesh_run(surface, case: Case, features: bool) -> MeshRun:
         m = exc.mesh
     seconds = time.perf_counter() - t0
     info = {"complete": m.complete, "stats_seconds": m.stats.get("seconds")}
+    if m.report.get("creases") is not None:
+        info["creases"] = m.report["creases"]
     if m.features is not None:
         info["features"] = m.features.as_report()
     return MeshRun(m.vertices, m.faces, seconds, info)
@@ -422,6 +454,26 @@ def run_rdmesh(case: Case, work: Path, timeout: float) -> MeshRun:
             (case.shape.vertices, case.shape.faces), feature_angle=case.feature_angle
         )
     return _rdmesh_run(s, case, True)
+
+
+def _found_surface(case: Case):
+    import rdmesh
+
+    if case.csg is not None:
+        return case.csg()
+    return rdmesh.ImplicitSurface.from_expression(
+        case.expression, case.bounding_sphere, name=case.name
+    )
+
+
+@register("rdmesh_found", kinds=("implicit",), label="rdmesh, creases found (nothing given)")
+def run_rdmesh_found(case: Case, work: Path, timeout: float) -> MeshRun:
+    run = _rdmesh_run(_found_surface(case), case, True)
+    report = run.info.get("creases") or {}
+    run.info["found"] = {
+        k: report.get(k) for k in ("curves", "closed", "corners", "seconds", "level", "unresolved")
+    }
+    return run
 
 
 @register("rdmesh_plain", kinds=("implicit", "mesh", "volume"), label="rdmesh, nothing protected")
@@ -555,6 +607,7 @@ def main(argv: list[str] | None = None) -> int:
             "hausdorff_samples": args.hausdorff_samples,
             "implicit": {"angle": 30, "radius": 0.1, "distance": 0.01, "edge_size": 0.1},
             "arc_segments": 64,
+            "circle_segments": crease_shapes.ARC_SEGMENTS,
         },
         "cases": {},
         "runs": [],

@@ -24,6 +24,7 @@ sys.path.insert(0, str(BENCH))
 
 import cad_shapes  # noqa: E402
 import cgal_runner  # noqa: E402
+import crease_shapes  # noqa: E402
 import feature_metrics as fm  # noqa: E402
 
 
@@ -149,6 +150,51 @@ def test_arc_distances_and_sagitta():
     # Off the arc's ends the distance is to the nearer end.
     beyond = np.asarray(arc.start) + np.array([[0.0, 0.0, 0.5]])
     assert arc.project(beyond)[0][0] == pytest.approx(0.5)
+
+
+def test_circle_is_one_closed_curve():
+    circle = fm.Circle((0.0, 0.0, 1.0), 0.5, (0.0, 0.0, 1.0))
+    assert circle.closed and circle.length == pytest.approx(np.pi)
+    pts = circle.sample(64)
+    assert np.array_equal(pts[0], pts[-1])
+    d, s = circle.project(pts[:-1])
+    assert d.max() < 1e-15 and np.all(np.diff(s) > 0)
+    assert circle.project(np.array([[0.0, 0.0, 2.0]]))[0][0] == pytest.approx(np.hypot(1, 0.5))
+    # The 64-gon's edges follow the circle all the way round (the last one wraps).
+    n = 64
+    rim = pts[:-1]
+    fan = np.array([[0, i, i + 1] for i in range(1, n - 1)])
+    cov = fm.crease_coverage(rim, fan, [circle], tol=1e-12)
+    assert cov["coverage"] == pytest.approx(1.0, abs=1e-12)
+    # One triangle far from vertex 0: its one rim edge covers 1/n of the circle.
+    one = fm.crease_coverage(rim, np.array([[0, 30, 31]]), [circle], tol=1e-12)
+    assert one["coverage"] == pytest.approx(1.0 / n, abs=1e-12)
+    # Moved off the circle by 1e-6, nothing is on it at tol 1e-9.
+    off = fm.crease_coverage(rim * (1 + 2e-6), fan, [circle], tol=1e-9)
+    assert off["coverage"] == 0.0
+
+
+@pytest.mark.parametrize("name", sorted(crease_shapes.SHAPES))
+def test_crease_shape_curves_are_on_the_surface_and_on_two_pieces(name):
+    import rdmesh
+
+    shape = crease_shapes.SHAPES[name]()
+    pts = np.concatenate([c.sample(32) for c in shape.curves])
+    assert np.abs(shape.f(pts)).max() < 1e-15
+    assert np.abs(shape.f(shape.corners)).max() < 1e-15 if len(shape.corners) else True
+    surface = (
+        shape.csg()
+        if shape.csg is not None
+        else rdmesh.ImplicitSurface.from_expression(shape.expression, shape.bounding_sphere)
+    )
+    x = np.random.default_rng(1).uniform(-1.6, 1.6, (2000, 3))
+    assert np.abs(surface.f(x) - shape.f(x)).max() < 1e-14
+    # Each curve point is a crease: just off it along the curve's normal plane,
+    # f changes its gradient (two pieces meet at an angle).
+    g = surface.grad(pts + 1e-7) - surface.grad(pts - 1e-7)
+    assert (np.linalg.norm(g, axis=1) > 0.1).mean() > 0.5
+    for poly in crease_shapes.polylines(shape.curves):
+        assert np.abs(shape.f(poly)).max() < 1e-15
 
 
 def test_surface_distance_and_hausdorff_of_a_grown_cube():
@@ -302,6 +348,22 @@ def test_features_script_on_its_input_rows(tmp_path):
     assert hole["coverage"] == pytest.approx(1.0) and hole["topology"]["genus"] == 1
     assert hole["hausdorff"]["two_sided"] < 1e-12
     assert rec["cases"]["box_with_hole"]["radius"] == pytest.approx(0.02)
+
+
+def test_features_script_finds_the_lens_circle(tmp_path):
+    cmd = [sys.executable, str(BENCH / "features.py"), "--cases", "lens"]
+    cmd += ["--meshers", "rdmesh_found", "--out", str(tmp_path)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+    assert proc.returncode == 0, proc.stderr
+    import json
+
+    (path,) = tmp_path.glob("features-*.json")
+    (run,) = json.loads(path.read_text())["runs"]
+    assert run["status"] == "ok", run.get("error")
+    assert run["info"]["found"]["curves"] == 1 and run["info"]["found"]["closed"] == 1
+    m = run["metrics"]
+    assert m["coverage"] == pytest.approx(1.0) and m["topology"]["euler"] == 2
+    assert m["crease_vertices"]["count"] > 0 and m["crease_vertices"]["max_distance"] < 1e-12
 
 
 # ---------------------------------------------------------------------------

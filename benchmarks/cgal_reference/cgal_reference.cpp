@@ -248,6 +248,35 @@ double f_box_ball(double x, double y, double z) {
                   std::sqrt(sq(x - 1.0) + sq(y - 1.0) + sq(z - 1.0)) - 0.8);
 }
 
+// Surfaces whose creases rdmesh finds by itself (issue 28; the same
+// functions, curves and spheres are in benchmarks/crease_shapes.py): the
+// cube rotated by 0.6 rad about (1, 2, 3) (rows rounded to doubles), a
+// cylinder, a lens (two unit balls intersected), the cube with a spherical
+// dimple, and the cube with a round hole (genus 1).
+double f_box_rotated(double x, double y, double z) {
+  const double u = 0.8378116424161298 * x + -0.4277690910152775 * y + 0.33924217987147504 * z;
+  const double v = 0.4776732010410837 * x + 0.8752397249354845 * y + -0.0760508836373509 * z;
+  const double w = -0.26438601483276575 * x + 0.22576321371476948 * y + 0.9376198624677422 * z;
+  return std::max({std::abs(u), std::abs(v), std::abs(w)}) - 1.0;
+}
+
+double f_cylinder(double x, double y, double z) {
+  return std::max(x * x + y * y - 1.0, std::abs(z) - 1.0);
+}
+
+double f_lens(double x, double y, double z) {
+  return std::max(std::sqrt(x * x + y * y + sq(z - 0.6)) - 1.0,
+                  std::sqrt(x * x + y * y + sq(z + 0.6)) - 1.0);
+}
+
+double f_box_dimple(double x, double y, double z) {
+  return std::max(f_box(x, y, z), 0.6 - std::sqrt(x * x + y * y + sq(z - 1.3)));
+}
+
+double f_box_hole(double x, double y, double z) {
+  return std::max(f_box(x, y, z), 0.5 - std::hypot(x, y));
+}
+
 // Global evaluation counter.  The meshers run sequentially (no TBB, no
 // CGAL_CONCURRENT_MESH_3), so a plain integer is enough.
 std::uint64_t g_evaluations = 0;
@@ -322,6 +351,12 @@ const std::map<std::string, Surface_entry>& surfaces() {
       // is at 2.08), and the centre is inside the cube.
       {"box", {f_box, counted<f_box>, {0.0, 0.0, 0.0}, 2.0}},
       {"box_ball", {f_box_ball, counted<f_box_ball>, {0.2, 0.2, 0.2}, 2.4}},
+      // The hole's axis is outside the solid: its centre is moved to x = 0.75.
+      {"box_rotated", {f_box_rotated, counted<f_box_rotated>, {0.0, 0.0, 0.0}, 2.0}},
+      {"cylinder", {f_cylinder, counted<f_cylinder>, {0.0, 0.0, 0.0}, 2.0}},
+      {"lens", {f_lens, counted<f_lens>, {0.0, 0.0, 0.0}, 1.5}},
+      {"box_dimple", {f_box_dimple, counted<f_box_dimple>, {0.0, 0.0, 0.0}, 2.0}},
+      {"box_hole", {f_box_hole, counted<f_box_hole>, {0.75, 0.0, 0.0}, 2.5}},
       {"clipped_gyroid",
        {f_clipped_gyroid, counted<f_clipped_gyroid>, {0.0, 0.0, 0.0}, 2.0, true}},
       {"clipped_plane", {f_clipped_plane, counted<f_clipped_plane>, {0.0, 0.0, 0.0}, 1.0, true}},
@@ -427,7 +462,8 @@ const char* const kUsage =
     "  delaunay: time Delaunay_triangulation_3(begin, end) of the points of FILE\n"
     "            (x y z per line)\n"
     "  NAME: sphere ellipsoid torus thin_torus double_torus tanglecube\n"
-    "        two_spheres blob_line box box_ball; clipped by their sphere\n"
+    "        two_spheres blob_line box box_ball box_rotated cylinder lens\n"
+    "        box_dimple box_hole; clipped by their sphere\n"
     "        (surface_mesher_boundary only): clipped_gyroid clipped_plane\n"
     "        clipped_cylinder clipped_half_torus;\n"
     "        clipped by a box (mesh_3_box only): box_gyroid box_plane\n"

@@ -44,6 +44,7 @@ ORDER = (
     "plot_remesh.py",
     "plot_clipped_gyroid.py",
     "plot_creases.py",
+    "plot_found_creases.py",
     "plot_batch.py",
 )
 

@@ -6,7 +6,7 @@ triangulation, driven from Python with vectorised surface evaluations.
 
 import logging
 
-from . import surfaces
+from . import csg, surfaces
 from ._errors import (
     BoundingSphereError,
     BudgetExceeded,
@@ -57,6 +57,7 @@ __all__ = [
     "StoppedEarly",
     "SurfaceMesh",
     "VolumeSurface",
+    "csg",
     "mesh_many",
     "mesh_surface",
     "surfaces",

@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 
 from ._validate import box_in_sphere, choice, integer, positive
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria, Sizing
+from .refine.feature_curves import search_creases
 from .refine.mesher import Budget, Mesher
 from .refine.methods import METHODS, TOPOLOGIES
 from .surfaces.expressions import Expression
 from .surfaces.oracle import ImplicitSurface
 from .surfaces.volume import VolumeSurface
+
+log = logging.getLogger("rdmesh")
 
 
 def mesh_surface(
@@ -132,7 +136,13 @@ def mesh_surface(
         vertex; next to the balls the angle, size and distance criteria are
         relaxed as in CGAL's Mesh_3 (``SurfaceMesh.features`` says what
         held). Boissonnat-Oudot only: "topological-ball" and ``certify``
-        refuse given feature curves.
+        refuse given feature curves. The creases of an expression's
+        ``min``, ``max`` and ``abs`` and of a :mod:`rdmesh.csg` tree are
+        found first (``features="auto"``, the default;
+        :func:`rdmesh.creases.find_creases`, ``report["creases"]``) and
+        protected the same way; a surface with creases found is meshed by
+        "boissonnat-oudot" without ``certify`` whatever ``method`` says
+        (with a warning, and the report's note).
 
     Returns
     -------
@@ -142,7 +152,9 @@ def mesh_surface(
     ------
     rdmesh.FeatureError
         (a ValueError) A given feature curve is not on the surface, or the
-        curves cannot be protected (curves or corners closer than 1e-6 R).
+        curves cannot be protected (curves or corners closer than 1e-6 R),
+        or an expression with features on uses ``sign``, ``floor`` or
+        ``ceil`` (its surface jumps).
     ValueError
         Invalid criteria, method or topology; given feature curves with the
         topological-ball method or ``certify``; a surface clipped to a box
@@ -186,9 +198,7 @@ def mesh_surface(
             f"{topology!r} is only for 'boissonnat-oudot' (surfaces that leave the "
             "bounding sphere are not supported by 'topological-ball')"
         )
-    if radius_bound is None and method == "boissonnat-oudot":
-        radius_bound = surface.radius / 20.0
-    criteria = FacetCriteria(angle_bound, radius_bound, distance_bound)
+    criteria = FacetCriteria(angle_bound, radius_bound, distance_bound)  # checked first
     if max_vertices is not None:
         max_vertices = integer("max_vertices", max_vertices, lo=1)
     if time_limit is not None:
@@ -224,9 +234,20 @@ def mesh_surface(
         )
     if edge_size is not None and not callable(edge_size):
         edge_size = positive("edge_size", edge_size)
-    budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
     if progress is not True and progress is not False and not callable(progress):
         raise ValueError(f"progress must be True, False or a callable, got {progress!r}")
+    creases = search_creases(surface, topology, seed, seed_resolution)
+    if creases is not None and creases.curves and (method != "boissonnat-oudot" or certify):
+        creases.note = (
+            f"{len(creases.curves)} creases found: meshed by 'boissonnat-oudot' with the creases "
+            f"protected instead of {method!r}{' with certify' if certify else ''} (the "
+            "topological-ball tests and the proofs assume a smooth surface); not certified"
+        )
+        log.warning("%s", creases.note)
+        method, certify = "boissonnat-oudot", False
+    if radius_bound is None and method == "boissonnat-oudot":
+        criteria = FacetCriteria(angle_bound, surface.radius / 20.0, distance_bound)
+    budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
     mesher = Mesher(
         surface,
         criteria,
@@ -239,6 +260,7 @@ def mesh_surface(
         workers=workers,
         certify=bool(certify),
         edge_size=edge_size,
+        creases=creases,
     )
     if progress is True:
         from .progress import ProgressBar

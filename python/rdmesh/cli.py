@@ -302,7 +302,8 @@ def _add_run_options(p: argparse.ArgumentParser, method: bool) -> None:
     feat.add_argument(
         "--no-features",
         action="store_true",
-        help="protect no curve (clip boundaries snapped, creases and sharp edges rounded)",
+        help="protect no curve (clip boundaries snapped, creases and sharp edges rounded); "
+        "without it, the creases of an expression's min, max and abs are found and kept",
     )
 
 

@@ -43,6 +43,9 @@ class MeshFeatures:
     repairs : int
         Times the balls were shrunk and the mesh made again because the
         check failed.
+    unresolved : (k, 3) float64
+        Places where the search for creases in an expression or CSG tree
+        could neither exclude nor trace one (``report["creases"]``).
     """
 
     curves: list[np.ndarray] = field(default_factory=list)
@@ -55,6 +58,7 @@ class MeshFeatures:
     failed: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     repairs: int = 0
     balls: int = 0
+    unresolved: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     def as_report(self) -> dict[str, Any]:
         """The report's ``features`` entry (plain types)."""
@@ -68,6 +72,7 @@ class MeshFeatures:
             "corners_kept": self.corners_kept,
             "failed": np.round(self.failed, 12).tolist(),
             "repairs": self.repairs,
+            "unresolved": len(self.unresolved),
             "sources": sorted(set(self.sources)),
             "level": "proven" if self.held else "failed",
             "what": "every consecutive pair of ball centres is a mesh edge with two triangles "

@@ -221,6 +221,21 @@ def _check_format(path: str | os.PathLike) -> None:
         )
 
 
+def _creases_line(c: dict) -> str:
+    """The summary's line on the creases found in an expression or CSG tree."""
+    if c.get("note", "").startswith("not searched"):
+        return f"creases: {c['note']}"
+    how = (
+        "the interval search settled every box no traced crease crosses"
+        if c["level"] == "intervals"
+        else "seeded from the grid only, no interval search"
+    )
+    line = f"creases found: {c['curves']} curves, {c['corners']} corners ({how})"
+    if c["unresolved"]:
+        line += f"; {len(c['unresolved'])} places UNRESOLVED (report['creases'])"
+    return line
+
+
 def _summary(mesh: SurfaceMesh) -> str:
     """:meth:`SurfaceMesh.summary`."""
     topo = mesh.topology()
@@ -247,6 +262,9 @@ def _summary(mesh: SurfaceMesh) -> str:
             else f"features: {len(f.curves)} curves, {len(f.corners)} corners; NOT all kept "
             f"({f.edges_kept} of {f.edges} curve edges, {f.corners_kept} corners)"
         )
+    creases = mesh.report.get("creases") if mesh.report else None
+    if creases is not None:
+        lines.append(_creases_line(creases))
     if not mesh.complete:
         lines.append("INCOMPLETE: " + str(mesh.stats.get("stop_reason", "budget")))
     if len(mesh.unresolved):

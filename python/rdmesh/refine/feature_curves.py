@@ -1,6 +1,7 @@
 """Where feature curves come from: the user's polylines, the curve where a
-clipped surface meets its domain, and the creases of a volume closed by its
-box (each a :class:`~rdmesh.features.graph.FeatureGraph`)."""
+clipped surface meets its domain, the creases of a volume closed by its
+box, and the creases found in an expression or CSG tree (each a
+:class:`~rdmesh.features.graph.FeatureGraph`)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .._vectors import row_norms
+from ..creases.search import CreaseSearch, find_creases, piece_model
 from ..features.graph import (
     FeatureCurve,
     FeatureError,
@@ -162,13 +164,21 @@ def volume_box_curves(volume, curve: BoundaryCurve) -> tuple[list[FeatureCurve],
 
 
 def feature_graph(
-    surface, *, boundary: BoundaryCurve | None = None, volume_curve: BoundaryCurve | None = None
+    surface,
+    *,
+    boundary: BoundaryCurve | None = None,
+    volume_curve: BoundaryCurve | None = None,
+    creases: CreaseSearch | None = None,
 ) -> FeatureGraph:
     """Every feature curve of a surface: its given polylines, its clip
-    boundary (``boundary``, traced) and, for a volume closed by its box, the
-    box's creases (``volume_curve``, traced on the box)."""
+    boundary (``boundary``, traced), for a volume closed by its box, the
+    box's creases (``volume_curve``, traced on the box), and the creases
+    found in its expression or CSG tree (``creases``:
+    :func:`~rdmesh.creases.search.find_creases`)."""
     R = surface.radius
     curves = given_curves(as_polylines(getattr(surface, "features", None)), R)
+    if creases is not None:
+        curves += creases.curves
     for k, p in enumerate(getattr(surface, "sharp_curves", [])):
         # The mesh's own edges: the polyline is the curve.
         curves.append(curve_of_polyline(p, R, f"sharp edges {k}", "mesh"))
@@ -183,4 +193,21 @@ def feature_graph(
     return build_graph(curves, R, extra)
 
 
-__all__ = ["FeatureError", "check_on_surface", "feature_graph"]
+def search_creases(surface, topology: str, seed: int, resolution: int) -> CreaseSearch | None:
+    """The creases of a surface whose function is an expression or a CSG tree
+    (:func:`~rdmesh.creases.search.find_creases`), unless its
+    features are given or off; None when there is nothing to search. A
+    surface with a boundary (a clip box, or ``topology="manifold-with-boundary"``)
+    is not searched: creases that reach the boundary are not followed onto
+    it yet (the report says so)."""
+    features = getattr(surface, "features", None)
+    if features == "none" or (isinstance(features, list) and features):
+        return None
+    if topology == "manifold-with-boundary" or getattr(surface, "clip_box", None) is not None:
+        if piece_model(surface) is None:
+            return None
+        return CreaseSearch(note="not searched: creases are not followed onto a boundary yet")
+    return find_creases(surface, seed=seed, resolution=resolution)
+
+
+__all__ = ["FeatureError", "check_on_surface", "feature_graph", "search_creases"]

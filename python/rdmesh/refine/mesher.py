@@ -22,6 +22,7 @@ from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
+from ..creases.search import CreaseSearch
 from ..features.check import check_features, repair_sites
 from ..io.result import SurfaceMesh
 from ..sampling.boundary import BoundaryCurve, guard_boundary
@@ -101,9 +102,9 @@ class Mesher:
         workers: int = 1,
         certify: bool = False,
         edge_size: float | Callable[[np.ndarray], np.ndarray] | None = None,
+        creases: CreaseSearch | None = None,
     ) -> None:
-        self.surface = surface
-        self.edge_size = edge_size
+        self.surface, self.edge_size, self.creases = surface, edge_size, creases
         self.criteria = criteria
         self.method = method
         self.topology = topology
@@ -244,7 +245,7 @@ def _attempt(m: Mesher, t0: float, evals0: int, ivals0: int, shrink: list) -> Su
     with m.timer("seeding"):
         plan = METHODS[m.method](
             m.surface, m.criteria, m.topology, rng, m.seed_resolution,
-            m.certify, edge_size=m.edge_size, shrink=shrink,
+            m.certify, edge_size=m.edge_size, shrink=shrink, creases=m.creases,
         )  # fmt: skip
     m.plan = plan
     seeds, stop = plan.seeds, None
@@ -361,6 +362,8 @@ def _result(
             plan.balls, plan.features, m.ball_ids, ids, mesh.faces, len(mesh.vertices)
         )
         mesh.features.repairs = m.repairs
+        if m.creases is not None:
+            mesh.features.unresolved = m.creases.unresolved
     report_interrupted = False
     try:
         with m.timer("report"):
@@ -382,6 +385,8 @@ def _result(
                 quick=bool(stop and stop.startswith("time_limit")),
             )
         mesh.report["features"] = _features_report(mesh, plan)
+        if m.creases is not None:
+            mesh.report["creases"] = m.creases.as_report()
     except KeyboardInterrupt:
         # The mesh is whole; only the report is missing.
         report_interrupted = True

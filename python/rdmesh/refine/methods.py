@@ -22,6 +22,7 @@ from scipy.spatial import cKDTree
 
 from .. import core
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
+from ..creases.search import CreaseSearch
 from ..features import Balls, FeatureError, FeatureGraph, protect
 from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
 from ..sampling.components import find_components
@@ -85,6 +86,7 @@ def boissonnat_oudot(
     certify: bool = False,
     edge_size: float | Sizing | None = None,
     shrink: list | None = None,
+    creases: CreaseSearch | None = None,
 ) -> Plan:
     """Seeds from the grid scan (and, to certify, from the interval subdivision);
     stages as CGAL's Surface_mesher with its manifold tags.
@@ -92,7 +94,8 @@ def boissonnat_oudot(
     With ``topology="manifold-with-boundary"`` the surface may leave the ball
     (or the surface's clip box): the curve where it meets the sphere (the box
     faces) is traced first (:mod:`rdmesh.sampling.boundary`). Feature curves
-    (that curve, given ones, a closed volume's box) get protecting balls
+    (that curve, given ones, a closed volume's box, the ``creases`` found in
+    an expression or CSG tree) get protecting balls
     (:mod:`rdmesh.features`), inserted before the seeds; with
     ``features="none"`` the boundary curve's samples are the first seeds
     instead, and refinement points near it are moved onto it.
@@ -110,15 +113,17 @@ def boissonnat_oudot(
         volume_curve = _volume_box_curve(surface, criteria, resolution)
         try:
             graph = feature_graph(
-                surface, boundary=boundary if clipped else None, volume_curve=volume_curve
-            )
+                surface, boundary=boundary if clipped else None, volume_curve=volume_curve,
+                creases=creases,
+            )  # fmt: skip
             if not graph.empty:
                 balls = _protect(surface, criteria, graph, scan, edge_size, shrink)
         except FeatureError as exc:
             if isinstance(surface.features, list) and len(surface.features):
                 raise
             # Curves rdmesh found itself (clip boundary, volume box, a mesh's
-            # sharp edges): mesh without them, as features="none", and say so.
+            # sharp edges, an expression's creases): mesh without them, as
+            # features="none", and say so.
             log.warning("feature curves not protected, meshed without them: %s", exc)
             graph, abandoned = None, str(exc)
         if balls is not None:
@@ -212,12 +217,14 @@ def topological_ball(
     certify: bool = False,
     edge_size: float | Sizing | None = None,
     shrink: list | None = None,
+    creases: CreaseSearch | None = None,
 ) -> Plan:
     """Seeds from the grid scan (to certify, from the interval subdivision
     instead) plus the critical points of a random height; the
     topological-ball tests, then the criteria while keeping them. Feature
     curves are not protected (the tests assume a smooth surface;
-    :func:`rdmesh.mesh_surface` refuses given curves with this method)."""
+    :func:`rdmesh.mesh_surface` refuses given curves with this method, and
+    meshes a surface with creases found by Boissonnat-Oudot instead)."""
     R = surface.radius
     bound = criteria.radius_bound
     spacing = bound if isinstance(bound, float) else None

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -44,6 +45,7 @@ from .._errors import ExpressionError
 from . import intervals, pointwise
 from ._parse import MAX_DEPTH, MAX_LENGTH, parse
 from .ir import CONSTANTS, FUNCTIONS, VARIABLES, Node
+from .pieces import PieceModel
 
 __all__ = [
     "CONSTANTS",
@@ -82,6 +84,12 @@ class Expression:
     _boxes: list = field(default_factory=lambda: [0], repr=False)
     # The core's interval program, compiled on first use (a mutable cell).
     _program: list = field(default_factory=list, repr=False)
+
+    @cached_property
+    def pieces(self) -> PieceModel:
+        """The expression's ``min``, ``max`` and ``abs`` branches and its
+        smooth pieces (:class:`~rdmesh.surfaces.pieces.PieceModel`)."""
+        return PieceModel(self._root)
 
     @property
     def interval_evaluations(self) -> int:

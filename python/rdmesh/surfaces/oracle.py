@@ -50,18 +50,18 @@ class ImplicitSurface:
         surface; other topologies, ``method="topological-ball"`` and
         ``certify=True`` raise ValueError). Default None: no box, the
         bounding ball only.
-    features : list of (m, 3) array_like, or "none", optional
+    features : list of (m, 3) array_like, "auto" or "none", optional
         Feature curves to keep in the mesh (creases, sharp edges), each a
-        polyline of points on the surface in order along the curve; a curve
-        whose last point repeats its first is a closed loop. Curves may meet
-        only at their end points (those are the corners); an end point on
-        another curve's interior splits that curve there. The mesh then has
-        a vertex at every corner and its edges follow each curve (protecting
-        balls centred on the polyline: :mod:`rdmesh.features`). Curves the
-        domain makes (where a ``clip_box`` or the bounding sphere cuts the
-        surface, the box of a closed volume, a mesh's sharp edges) are
-        protected as well. Default None: only those; "none": nothing is
-        protected (clip boundaries are then snapped, creases chamfered).
+        polyline of points on the surface in order along the curve (a last
+        point repeating the first closes it). Curves may meet only at their
+        end points (the corners); an end point on another curve's interior
+        splits it there. The mesh has a vertex at every corner and its edges
+        follow each curve (protecting balls: :mod:`rdmesh.features`). Curves
+        the domain makes (a ``clip_box`` or the sphere cutting the surface,
+        a closed volume's box, a mesh's sharp edges) are protected as well.
+        Default None (or "auto"): those, and the creases and corners found
+        where ``min``, ``max`` and ``abs`` switch in an expression or a
+        :mod:`rdmesh.csg` shape; "none": nothing (creases are chamfered).
 
     Attributes
     ----------
@@ -84,8 +84,8 @@ class ImplicitSurface:
     rdmesh.FeatureError
         (a ValueError) a feature polyline that is not an ``(m, 3)`` array of
         finite numbers, has fewer than two distinct points, or crosses
-        another curve (or itself) away from the end points; the message names
-        the polyline (``features[i]``).
+        another curve (or itself) away from its end points (the message names
+        ``features[i]``); or ``sign``, ``floor`` or ``ceil`` in ``f`` (auto).
 
     Notes
     -----
@@ -146,8 +146,8 @@ class ImplicitSurface:
             highest corner), which must lie inside the bounding sphere; see
             :class:`ImplicitSurface`. The mesh then has a boundary on the
             box faces and nothing is certified for it.
-        features : list of (m, 3) array_like, or "none", optional
-            Feature curves to keep (see :class:`ImplicitSurface`).
+        features : list of (m, 3) array_like, "auto" or "none", optional
+            Default "auto": the creases found in the expression (see above).
 
         Returns
         -------
@@ -194,7 +194,7 @@ def _checked_fields(
     box = surface.clip_box
     if box is not None:
         box = box_in_sphere(box, centre, radius, surface.name)
-    return centre, radius, box, _features(surface.features, radius)
+    return centre, radius, box, _features(surface.features, radius, surface.f, surface.name)
 
 
 def _from_expression(
@@ -293,19 +293,33 @@ def _evaluate_gradient(surface: ImplicitSurface, points: np.ndarray) -> np.ndarr
     return ((v[0] - v[1]) / (2 * h)).T
 
 
-def _features(features: Any, radius: float) -> list[np.ndarray] | str:
+def _features(features: Any, radius: float, f: Any, name: str) -> list[np.ndarray] | str:
     """The checked ``features=``: "none", or the polylines (an empty list for
-    None or "auto"); the curves are built once here so that crossings are
-    refused when the surface is made."""
-    if features is None or (isinstance(features, str) and features == "auto"):
-        return []
+    None or "auto": curves found, or none given); the curves are built once
+    here so that crossings are refused when the surface is made, and so are
+    step functions where creases are to be found."""
     from ..features.graph import FeatureError, as_polylines, build_graph, given_curves
+
+    if features is None or (isinstance(features, str) and features == "auto"):
+        from .expressions import Expression
+        from .pieces import PiecewiseFunction
+
+        model = f.pieces if isinstance(f, Expression) else getattr(f, "model", None)
+        steps = model.steps() if isinstance(f, (Expression, PiecewiseFunction)) else []
+        if steps:
+            raise FeatureError(
+                f"{name!r} uses {', '.join(steps)}: its surface jumps there, while creases are "
+                "found only where min, max and abs switch; pass features='none' to mesh it "
+                "without looking for creases"
+            )
+        return []
 
     if isinstance(features, str):
         if features == "none":
             return "none"
         raise FeatureError(
-            f"features must be a list of (m, 3) polylines, None or 'none', got {features!r}"
+            "features must be a list of (m, 3) polylines, 'auto', None or 'none', got "
+            f"{features!r}"
         )
 
     polylines = as_polylines(features)

@@ -16,7 +16,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .ir import Const, Nary, Neg, Node, Pow, Product, Sum, Unary, Var
+from .ir import Const, Nary, Neg, Node, Pow, Product, Sum, Unary, Var, children
 
 # A gradient is None (identically zero) or an array broadcastable to (3, N).
 Grad = np.ndarray | None
@@ -126,25 +126,30 @@ def value(node: Node, xyz):
         return node.c
     if kind is Var:
         return xyz[node.i]
+    return combine_value(node, [value(c, xyz) for c in children(node)])
+
+
+def combine_value(node: Node, vals: list):
+    """The value of ``node`` from its operands' values ``vals`` (in the order
+    of :func:`~rdmesh.surfaces.ir.children`): one step of :func:`value`, for
+    evaluators that walk the tree themselves."""
+    kind = type(node)
     if kind is Neg:
-        return -value(node.a, xyz)
+        return -vals[0]
     if kind is Sum:
         total = None
-        for term, minus in node.terms:
-            v = value(term, xyz)
+        for v, (_, minus) in zip(vals, node.terms, strict=True):
             total = (-v if minus else v) if total is None else (total - v if minus else total + v)
         return total
     if kind is Product:
-        out = value(node.factors[0][0], xyz)
-        for factor, divide in node.factors[1:]:
-            v = value(factor, xyz)
+        out = vals[0]
+        for v, (_, divide) in zip(vals[1:], node.factors[1:], strict=True):
             out = out / v if divide else out * v
         return out
     if kind is Pow:
-        return power(value(node.a, xyz), value(node.b, xyz))
+        return power(vals[0], vals[1])
     if kind is Unary:
-        return UNARY_FUNCTIONS[node.name][0](value(node.a, xyz))
-    vals = [value(a, xyz) for a in node.args]
+        return UNARY_FUNCTIONS[node.name][0](vals[0])
     if node.name == "atan2":
         return np.arctan2(vals[0], vals[1])
     if node.name == "pow":
@@ -164,22 +169,27 @@ def dual(node: Node, xyz) -> tuple:
         return node.c, None
     if kind is Var:
         return xyz[node.i], _UNIT[node.i]
+    return combine_dual(node, [dual(c, xyz) for c in children(node)])
+
+
+def combine_dual(node: Node, duals: list) -> tuple:
+    """``(value, gradient)`` of ``node`` from its operands' ``duals`` (in the
+    order of :func:`~rdmesh.surfaces.ir.children`): one step of :func:`dual`."""
+    kind = type(node)
     if kind is Neg:
-        v, g = dual(node.a, xyz)
+        v, g = duals[0]
         return -v, _gscale(g, -1.0)
     if kind is Sum:
         total, grad = None, None
-        for term, minus in node.terms:
-            v, g = dual(term, xyz)
+        for (v, g), (_, minus) in zip(duals, node.terms, strict=True):
             if minus:
                 v, g = -v, _gscale(g, -1.0)
             total = v if total is None else total + v
             grad = _gadd(grad, g)
         return total, grad
     if kind is Product:
-        out, grad = dual(node.factors[0][0], xyz)
-        for factor, divide in node.factors[1:]:
-            v, g = dual(factor, xyz)
+        out, grad = duals[0]
+        for (v, g), (_, divide) in zip(duals[1:], node.factors[1:], strict=True):
             if divide:
                 out = out / v
                 # d(u/v) = (du - (u/v) dv) / v
@@ -189,14 +199,14 @@ def dual(node: Node, xyz) -> tuple:
                 out = out * v
         return out, grad
     if kind is Pow:
-        return _pow_dual(*dual(node.a, xyz), *dual(node.b, xyz))
+        return _pow_dual(*duals[0], *duals[1])
     if kind is Unary:
         f, df = UNARY_FUNCTIONS[node.name]
-        a, ga = dual(node.a, xyz)
+        a, ga = duals[0]
         if ga is None or df is None:
             return f(a), None
         return f(a), ga * df(a)
-    return _nary_dual(node, [dual(a, xyz) for a in node.args])
+    return _nary_dual(node, duals)
 
 
 def _nary_dual(node: Nary, duals: list) -> tuple:
