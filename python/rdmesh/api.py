@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from ._validate import box_in_sphere, choice, integer, positive
+from .features.given import ProtectingBalls
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria, Sizing
 from .refine.mesher import Budget, Mesher
@@ -127,7 +128,9 @@ def mesh_surface(
         vertex; next to the balls the angle, size and distance criteria are
         relaxed as in CGAL's Mesh_3 (``SurfaceMesh.features`` says what
         held). Boissonnat-Oudot only: "topological-ball" and ``certify``
-        refuse given feature curves.
+        refuse given feature curves. Balls placed beforehand
+        (``features=ProtectingBalls(...)``) are inserted as they are and
+        not repaired: a failed feature check makes the mesh incomplete.
 
     Returns
     -------
@@ -212,6 +215,7 @@ def mesh_surface(
             "proofs assume a closed surface strictly inside the bounding sphere"
         )
     given = isinstance(surface.features, list) and len(surface.features) > 0
+    given |= isinstance(surface.features, ProtectingBalls)
     if given and (method != "boissonnat-oudot" or certify):
         raise ValueError(
             "feature curves (features=) need method='boissonnat-oudot' without certify: the "

@@ -9,7 +9,6 @@ from collections.abc import Callable
 import numpy as np
 
 from .._vectors import row_norms
-from ..sampling.boundary import BoundaryCurve, project_onto_curve
 from ..features.graph import (
     FeatureCurve,
     FeatureError,
@@ -19,6 +18,7 @@ from ..features.graph import (
     curve_of_polyline,
     given_curves,
 )
+from ..sampling.boundary import BoundaryCurve, project_onto_curve
 
 #: A given curve's points must lie within this of the surface (|f| / |grad f|), times R.
 ON_SURFACE = 1e-6

@@ -21,9 +21,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .. import core
+from .._errors import EmptySurfaceError
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
-from ..features import Balls, FeatureGraph, protect
-from .feature_curves import check_on_surface, feature_graph
+from ..features import Balls, FeatureGraph, ProtectingBalls, protect
 from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
 from ..sampling.critical import CriticalPoints, critical_points
 from ..sampling.discovery import Discovery, discover
@@ -34,6 +34,7 @@ from ..surfaces.oracle import ImplicitSurface
 from ..surfaces.volume import VolumeSurface
 from ..topology.tests import CELL_NORMAL_ANGLE, PROBE_TARGET, TESTS
 from .criteria import FacetCriteria, Sizing
+from .feature_curves import check_on_surface, feature_graph
 from .stages import FacetStage, Stage, TestStage
 
 log = logging.getLogger("rdmesh")
@@ -71,6 +72,8 @@ class Plan:
     #: The feature curves, and their protecting balls (inserted before the seeds).
     features: FeatureGraph | None = None
     balls: Balls | None = None
+    #: The balls were placed beforehand (``features=ProtectingBalls``): not repaired.
+    balls_given: bool = False
 
 
 def boissonnat_oudot(
@@ -92,14 +95,23 @@ def boissonnat_oudot(
     (that curve, given ones, a closed volume's box) get protecting balls
     (:mod:`rdmesh.features`), inserted before the seeds; with
     ``features="none"`` the boundary curve's samples are the first seeds
-    instead, and refinement points near it are moved onto it.
+    instead, and refinement points near it are moved onto it. Balls placed
+    beforehand (:class:`~rdmesh.features.ProtectingBalls`) replace all of
+    this: nothing is traced, and they may be the only seeds.
     """
     spacing = criteria.radius_bound if isinstance(criteria.radius_bound, float) else None
     clipped = topology == "manifold-with-boundary"
-    scan, found = _scan(surface, rng, resolution, spacing, certify, clipped)
-    protecting = surface.features != "none"
+    given = surface.features if isinstance(surface.features, ProtectingBalls) else None
+    try:
+        scan, found = _scan(surface, rng, resolution, spacing, certify, clipped)
+    except EmptySurfaceError:
+        if given is None or not len(given):
+            raise
+        none = np.zeros((0, 3))
+        scan, found = GridScan(none, none, 2.0 * surface.radius / resolution), None
+    protecting = surface.features != "none" and given is None
     boundary = None
-    if clipped:
+    if clipped and given is None:
         size = _boundary_spacing(surface, criteria)
         field = criteria.sizing if callable(criteria.radius_bound) else None
         boundary = boundary_curve(surface, size, criteria.distance_bound, resolution, field)
@@ -109,7 +121,10 @@ def boissonnat_oudot(
             seeds = np.concatenate([boundary.points, _away(inner, boundary.points, 0.5 * size)])
             scan = GridScan(seeds, scan.crossings, scan.spacing)
     graph, balls = None, None
-    if protecting:
+    if given is not None and len(given):
+        given.check_on_surface(surface)
+        graph, balls = given.graph, given.balls
+    elif protecting:
         graph = feature_graph(
             surface, boundary=boundary if clipped else None,
             volume_curve=_volume_box_curve(surface, criteria, resolution),
@@ -120,14 +135,15 @@ def boissonnat_oudot(
             sheets = (scan.crossings, unit_normals(surface, scan.crossings))
             balls = protect(graph, size, surface.radius, sheets,
                             distance=criteria.distance_bound, shrink=shrink)  # fmt: skip
-            # A seed in a ball would be hidden, or a vertex next to a curve.
-            scan = GridScan(scan.seeds[~balls.inside(scan.seeds, SEED_CLEARANCE)],
-                            scan.crossings, scan.spacing)  # fmt: skip
-            log.info(
-                "features: %d curves, %d corners, %d protecting balls (radii %.3g to %.3g)",
-                len(graph.curves), len(graph.corners), len(balls), balls.radii.min(),
-                balls.radii.max(),
-            )  # fmt: skip
+    if balls is not None:
+        # A seed in a ball would be hidden, or a vertex next to a curve.
+        scan = GridScan(scan.seeds[~balls.inside(scan.seeds, SEED_CLEARANCE)],
+                        scan.crossings, scan.spacing)  # fmt: skip
+        log.info(
+            "features: %d curves, %d corners, %d protecting balls (radii %.3g to %.3g)",
+            len(graph.curves), len(graph.corners), len(balls), balls.radii.min(),
+            balls.radii.max(),
+        )  # fmt: skip
     soft = _angle_only_at_boundary(surface, criteria) if clipped and balls is None else None
     stages: list[Stage] = [FacetStage("facet", core.BAD | core.TOPO, "unless-bad", soft)]
     if topology != "non-manifold":
@@ -148,6 +164,7 @@ def boissonnat_oudot(
         boundary=boundary,
         features=graph,
         balls=balls,
+        balls_given=given is not None,
     )
 
 

@@ -48,8 +48,7 @@ class ImplicitSurface:
         inside the box, with a boundary on its faces, with
         ``topology="manifold-with-boundary"`` (the default for such a
         surface; other topologies, ``method="topological-ball"`` and
-        ``certify=True`` raise ValueError). Default None: no box, the
-        bounding ball only.
+        ``certify=True`` raise ValueError). Default None: no box, the bounding ball only.
     features : list of (m, 3) array_like, or "none", optional
         Feature curves to keep in the mesh (creases, sharp edges), each a
         polyline of points on the surface in order along the curve; a curve
@@ -62,6 +61,7 @@ class ImplicitSurface:
         surface, the box of a closed volume, a mesh's sharp edges) are
         protected as well. Default None: only those; "none": nothing is
         protected (clip boundaries are then snapped, creases chamfered).
+        Balls placed beforehand (:class:`rdmesh.features.ProtectingBalls`) replace all of these.
 
     Attributes
     ----------
@@ -249,13 +249,18 @@ class ImplicitSurface:
         return ((v[0] - v[1]) / (2 * h)).T
 
 
-def _features(features: Any, radius: float) -> list[np.ndarray] | str:
-    """The checked ``features=``: "none", or the polylines (an empty list for
-    None or "auto"); the curves are built once here so that crossings are
-    refused when the surface is made."""
+def _features(features: Any, radius: float) -> Any:
+    """The checked ``features=``: "none", precomputed balls
+    (:class:`~rdmesh.features.ProtectingBalls`, checked when made), or the
+    polylines (an empty list for None or "auto"); the curves are built once
+    here so that crossings are refused when the surface is made."""
     if features is None or (isinstance(features, str) and features == "auto"):
         return []
+    from ..features.given import ProtectingBalls
     from ..features.graph import FeatureError, as_polylines, build_graph, given_curves
+
+    if isinstance(features, ProtectingBalls):
+        return features
 
     if isinstance(features, str):
         if features == "none":
