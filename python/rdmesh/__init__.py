@@ -22,6 +22,7 @@ from ._errors import (
 )
 from .api import mesh_surface
 from .batch import Job, JobResult, mesh_many
+from .blocks import mesh_volume_blocks
 from .core import CGAL_VERSION
 from .features import FeatureError, MeshFeatures
 from .io.result import SurfaceMesh
@@ -58,6 +59,7 @@ __all__ = [
     "SurfaceMesh",
     "VolumeSurface",
     "mesh_many",
+    "mesh_volume_blocks",
     "mesh_surface",
     "surfaces",
 ]
