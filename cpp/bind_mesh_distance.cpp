@@ -72,7 +72,16 @@ void register_mesh_distance(py::module_& m) {
           py::arg("points"), py::arg("beta") = 2.5,
           "(k,) generalized winding numbers; clusters farther than beta radii "
           "are approximated by their dipole.")
+      .def(
+          "self_intersections",
+          [](const MeshDistance& self) {
+            std::vector<std::int64_t> pairs = self.self_intersections();
+            return to_numpy(pairs, {static_cast<py::ssize_t>(pairs.size() / 2), 2});
+          },
+          "(k, 2) int64: the pairs of intersecting faces of a closed manifold mesh that "
+          "intersects itself (empty otherwise).")
       .def_property_readonly("has_side", &MeshDistance::has_side)
+      .def_property_readonly("has_pseudo_normals", &MeshDistance::has_pseudo_normals)
       .def_property_readonly("side_failure", &MeshDistance::side_failure)
       .def_property_readonly("number_of_faces", &MeshDistance::number_of_faces);
 }

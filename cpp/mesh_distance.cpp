@@ -2,6 +2,8 @@
 // mesh_distance.hpp).
 #include "mesh_distance.hpp"
 
+#include "on_cores.hpp"
+
 #include <CGAL/AABB_face_graph_triangle_primitive.h>
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
@@ -13,11 +15,14 @@
 #include <CGAL/boost/graph/helpers.h>
 
 #include <algorithm>
+#include <atomic>
 #include <array>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
+#include <utility>
 
 namespace rdmesh {
 
@@ -79,6 +84,14 @@ struct MeshDistance::Impl {
   std::string side_failure;
   std::vector<WNode> nodes;
   std::vector<std::int32_t> order;  // faces (indices into tri) in hierarchy order
+  // Angle-weighted pseudo-normals (Baerentzen and Aanaes 2005), built with the
+  // side oracle: per face, per edge (opposite each corner) and per vertex.
+  std::vector<Vec> face_normal;
+  std::vector<std::array<Vec, 3>> edge_normal;
+  std::vector<Vec> vertex_normal;
+  bool pseudo = false;  // the pseudo-normals give the side (faces oriented outwards)
+  // Pairs of faces that intersect (a bounded number), when the mesh does.
+  std::vector<std::pair<std::int64_t, std::int64_t>> crossing_faces;
 
   const double* vertex(std::int64_t i) const { return &xyz[3 * static_cast<std::size_t>(i)]; }
 
@@ -186,12 +199,127 @@ struct MeshDistance::Impl {
     }
     if (CGAL::Polygon_mesh_processing::does_self_intersect(*mesh)) {
       side_failure = "the mesh intersects itself";
+      find_crossings();
       mesh.reset();
       return;
     }
     mesh_tree = std::make_unique<MeshTree>(faces(*mesh).first, faces(*mesh).second, *mesh);
     mesh_tree->build();
     side = std::make_unique<Side>(*mesh_tree);
+    build_pseudo_normals();
+  }
+
+  // The intersecting face pairs of a closed mesh (the faces of *mesh were
+  // added in the order of tri, so face indices are tri's).
+  void find_crossings() {
+    std::vector<std::pair<Mesh::Face_index, Mesh::Face_index>> pairs;
+    CGAL::Polygon_mesh_processing::self_intersections(*mesh, std::back_inserter(pairs));
+    crossing_faces.reserve(pairs.size());
+    for (const auto& fp : pairs)
+      crossing_faces.emplace_back(static_cast<std::int64_t>(fp.first.idx()),
+                                  static_cast<std::int64_t>(fp.second.idx()));
+  }
+
+  // For a closed, consistently oriented mesh without self-intersections, the
+  // sign of (p - c) . n at the closest point c, with n the angle-weighted
+  // pseudo-normal of the feature (face, edge or vertex) c lies on, is the side
+  // of p (Baerentzen and Aanaes, IEEE TVCG 11(3), 2005).
+  void build_pseudo_normals() {
+    const std::size_t n = xyz.size() / 3, m = tri.size() / 3;
+    face_normal.assign(m, Vec{0, 0, 0});
+    vertex_normal.assign(n, Vec{0, 0, 0});
+    edge_normal.assign(m, {Vec{0, 0, 0}, Vec{0, 0, 0}, Vec{0, 0, 0}});
+    for (std::size_t f = 0; f < m; ++f) {
+      const double* v[3] = {vertex(tri[3 * f]), vertex(tri[3 * f + 1]), vertex(tri[3 * f + 2])};
+      Vec x = cross(sub(v[1], v[0]), sub(v[2], v[0]));
+      const double l = norm(x);
+      for (double& c : x) c /= l;
+      face_normal[f] = x;
+      for (int k = 0; k < 3; ++k) {
+        const Vec e1 = sub(v[(k + 1) % 3], v[k]), e2 = sub(v[(k + 2) % 3], v[k]);
+        const double angle = std::atan2(norm(cross(e1, e2)), dot(e1, e2));
+        auto& vn = vertex_normal[static_cast<std::size_t>(tri[3 * f + k])];
+        for (int d = 0; d < 3; ++d) vn[d] += angle * x[d];
+      }
+    }
+    // Each edge has exactly two faces (closed manifold): its pseudo-normal is their sum.
+    std::unordered_map<std::uint64_t, std::pair<std::size_t, int>> first;
+    first.reserve(3 * m);
+    for (std::size_t f = 0; f < m; ++f)
+      for (int k = 0; k < 3; ++k) {
+        std::uint64_t a = static_cast<std::uint64_t>(tri[3 * f + (k + 1) % 3]),
+                      b = static_cast<std::uint64_t>(tri[3 * f + (k + 2) % 3]);
+        if (a > b) std::swap(a, b);
+        const std::uint64_t key = a * static_cast<std::uint64_t>(n) + b;
+        const auto it = first.find(key);
+        if (it == first.end()) {
+          first.emplace(key, std::make_pair(f, k));
+          continue;
+        }
+        const auto [g, j] = it->second;
+        Vec sum{};
+        for (int d = 0; d < 3; ++d) sum[d] = face_normal[f][d] + face_normal[g][d];
+        edge_normal[f][k] = sum;
+        edge_normal[g][j] = sum;
+      }
+    // The pseudo-normals assume every face's normal points out of what it
+    // bounds. Check each face against the ray-casting oracle just in front of
+    // it; one face the other way round (a component oriented against the
+    // rest) and the oracle stays ray casting.
+    std::atomic<bool> outward{true};
+    const std::size_t blocks = (m + 1023) / 1024;
+    for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
+      for (std::size_t f = blk * 1024; f < std::min(m, (blk + 1) * 1024) && outward; ++f) {
+        const double* v[3] = {vertex(tri[3 * f]), vertex(tri[3 * f + 1]), vertex(tri[3 * f + 2])};
+        const Vec x = cross(sub(v[1], v[0]), sub(v[2], v[0]));
+        const double step = 1e-6 * std::sqrt(norm(x));
+        double q[3];
+        for (int d = 0; d < 3; ++d)
+          q[d] = (v[0][d] + v[1][d] + v[2][d]) / 3.0 + step * face_normal[f][d];
+        if ((*side)(Point(q[0], q[1], q[2])) == CGAL::ON_BOUNDED_SIDE) outward = false;
+      }
+    });
+    pseudo = outward;
+    if (!pseudo) {
+      face_normal.clear();
+      edge_normal.clear();
+      vertex_normal.clear();
+    }
+  }
+
+  // +1 outside, -1 inside, 0 on the surface, for q with closest point c on
+  // face f; falls back to the ray-casting oracle where the pseudo-normal's
+  // answer is too close to call.
+  std::int8_t pseudo_side(const Point& q, const Point& c, std::size_t f) const {
+    const double p[3] = {q.x(), q.y(), q.z()}, cc[3] = {c.x(), c.y(), c.z()};
+    const Vec d = sub(p, cc);
+    const double dn = norm(d);
+    if (dn == 0.0) return 0;
+    const double* v[3] = {vertex(tri[3 * f]), vertex(tri[3 * f + 1]), vertex(tri[3 * f + 2])};
+    // Barycentric coordinates of c, to tell face, edge or vertex.
+    const Vec e0 = sub(v[1], v[0]), e1 = sub(v[2], v[0]), w = sub(cc, v[0]);
+    const double d00 = dot(e0, e0), d01 = dot(e0, e1), d11 = dot(e1, e1);
+    const double d20 = dot(w, e0), d21 = dot(w, e1);
+    const double den = d00 * d11 - d01 * d01;
+    const double l1 = (d11 * d20 - d01 * d21) / den, l2 = (d00 * d21 - d01 * d20) / den;
+    const double lam[3] = {1.0 - l1 - l2, l1, l2};
+    constexpr double tol = 1e-9;
+    int small = 0, which = -1, big = 0;
+    for (int k = 0; k < 3; ++k) {
+      if (lam[k] < tol) {
+        ++small;
+        which = k;
+      } else {
+        big = k;
+      }
+    }
+    const Vec* n = &face_normal[f];
+    if (small == 1) n = &edge_normal[f][static_cast<std::size_t>(which)];
+    if (small >= 2) n = &vertex_normal[static_cast<std::size_t>(tri[3 * f + big])];
+    const double s = dot(d, *n);
+    if (std::abs(s) > 1e-6 * dn * norm(*n)) return s > 0 ? 1 : -1;
+    const CGAL::Bounded_side b = (*side)(q);
+    return b == CGAL::ON_UNBOUNDED_SIDE ? 1 : (b == CGAL::ON_BOUNDED_SIDE ? -1 : 0);
   }
 };
 
@@ -244,46 +372,74 @@ MeshDistance::MeshDistance(const double* vertices, std::size_t n, const std::int
 
 MeshDistance::~MeshDistance() = default;
 
+namespace {
+// Queries run on the cores in blocks of this many points.
+constexpr std::size_t kBlock = 512;
+}  // namespace
+
 void MeshDistance::query(const double* p, std::size_t k, double* dist, double* closest,
                          std::int64_t* face, std::int8_t* side) const {
   const Impl& s = *impl_;
   check_finite(p, k);
-  for (std::size_t i = 0; i < k; ++i) {
-    const Point q(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
-    const auto hit = s.tree.closest_point_and_primitive(q);
-    const Point& c = hit.first;
-    closest[3 * i] = c.x();
-    closest[3 * i + 1] = c.y();
-    closest[3 * i + 2] = c.z();
-    dist[i] = std::sqrt(CGAL::squared_distance(q, c));
-    face[i] = s.soup_face[static_cast<std::size_t>(hit.second - s.soup.cbegin())];
-    if (s.side) {
-      const CGAL::Bounded_side b = (*s.side)(q);
-      side[i] = b == CGAL::ON_UNBOUNDED_SIDE ? 1 : (b == CGAL::ON_BOUNDED_SIDE ? -1 : 0);
-    } else {
-      side[i] = 0;
+  const std::size_t blocks = (k + kBlock - 1) / kBlock;
+  for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
+    for (std::size_t i = blk * kBlock; i < std::min(k, (blk + 1) * kBlock); ++i) {
+      const Point q(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+      const auto hit = s.tree.closest_point_and_primitive(q);
+      const Point& c = hit.first;
+      closest[3 * i] = c.x();
+      closest[3 * i + 1] = c.y();
+      closest[3 * i + 2] = c.z();
+      dist[i] = std::sqrt(CGAL::squared_distance(q, c));
+      const auto f = s.soup_face[static_cast<std::size_t>(hit.second - s.soup.cbegin())];
+      face[i] = f;
+      if (s.pseudo) {
+        side[i] = s.pseudo_side(q, c, static_cast<std::size_t>(f));
+      } else if (s.side) {
+        const CGAL::Bounded_side b = (*s.side)(q);
+        side[i] = b == CGAL::ON_UNBOUNDED_SIDE ? 1 : (b == CGAL::ON_BOUNDED_SIDE ? -1 : 0);
+      } else {
+        side[i] = 0;
+      }
     }
-  }
+  });
 }
 
 void MeshDistance::side(const double* p, std::size_t k, std::int8_t* side) const {
   const Impl& s = *impl_;
   if (!s.side) throw std::logic_error("this mesh has no side oracle: " + s.side_failure);
   check_finite(p, k);
-  for (std::size_t i = 0; i < k; ++i) {
-    const CGAL::Bounded_side b = (*s.side)(Point(p[3 * i], p[3 * i + 1], p[3 * i + 2]));
-    side[i] = b == CGAL::ON_UNBOUNDED_SIDE ? 1 : (b == CGAL::ON_BOUNDED_SIDE ? -1 : 0);
-  }
+  const std::size_t blocks = (k + kBlock - 1) / kBlock;
+  for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
+    for (std::size_t i = blk * kBlock; i < std::min(k, (blk + 1) * kBlock); ++i) {
+      const CGAL::Bounded_side b = (*s.side)(Point(p[3 * i], p[3 * i + 1], p[3 * i + 2]));
+      side[i] = b == CGAL::ON_UNBOUNDED_SIDE ? 1 : (b == CGAL::ON_BOUNDED_SIDE ? -1 : 0);
+    }
+  });
 }
 
 void MeshDistance::winding_number(const double* p, std::size_t k, double* w, double beta) const {
   if (!(beta > 1.0) || !std::isfinite(beta))
     throw std::invalid_argument("beta must be finite and greater than 1");
   check_finite(p, k);
-  for (std::size_t i = 0; i < k; ++i) w[i] = impl_->winding(&p[3 * i], beta);
+  const std::size_t blocks = (k + kBlock - 1) / kBlock;
+  for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
+    for (std::size_t i = blk * kBlock; i < std::min(k, (blk + 1) * kBlock); ++i)
+      w[i] = impl_->winding(&p[3 * i], beta);
+  });
+}
+
+std::vector<std::int64_t> MeshDistance::self_intersections() const {
+  std::vector<std::int64_t> out;
+  for (const auto& [a, b] : impl_->crossing_faces) {
+    out.push_back(a);
+    out.push_back(b);
+  }
+  return out;
 }
 
 bool MeshDistance::has_side() const { return static_cast<bool>(impl_->side); }
+bool MeshDistance::has_pseudo_normals() const { return impl_->pseudo; }
 const char* MeshDistance::side_failure() const { return impl_->side_failure.c_str(); }
 std::size_t MeshDistance::number_of_faces() const { return impl_->tri.size() / 3; }
 

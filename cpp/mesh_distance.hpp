@@ -30,9 +30,12 @@ class MeshDistance {
   MeshDistance& operator=(const MeshDistance&) = delete;
 
   // For k points p (k x 3): the unsigned distance, the closest point (k x 3)
-  // and the index of the face it lies on (k), and with has_side() the side
-  // from Side_of_triangle_mesh: +1 outside, -1 inside, 0 on the surface
-  // (0 everywhere without has_side()).
+  // and the index of the face it lies on (k), and with has_side() the side:
+  // +1 outside, -1 inside, 0 on the surface (0 everywhere without
+  // has_side()), from the angle-weighted pseudo-normal of the closest
+  // feature (exact for the closed, oriented, non-self-intersecting meshes
+  // that have a side oracle), and from Side_of_triangle_mesh where that is
+  // too close to call.  Runs on the cores.
   void query(const double* p, std::size_t k, double* dist, double* closest, std::int64_t* face,
              std::int8_t* side) const;
 
@@ -45,7 +48,14 @@ class MeshDistance {
   // clusters (Barill et al. 2018) beyond `beta` cluster radii.
   void winding_number(const double* p, std::size_t k, double* w, double beta = 2.5) const;
 
+  // Pairs of intersecting faces (2 indices each, flattened) when the faces
+  // form a closed manifold surface that intersects itself; empty otherwise.
+  std::vector<std::int64_t> self_intersections() const;
+
   bool has_side() const;
+  // Whether query() takes the side from the pseudo-normals (has_side() and
+  // every face oriented outwards) rather than from ray casting.
+  bool has_pseudo_normals() const;
   // Why has_side() is false ("" when it is true or was not asked for).
   const char* side_failure() const;
   std::size_t number_of_faces() const;

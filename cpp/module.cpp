@@ -348,8 +348,6 @@ PYBIND11_MODULE(_rdt, m) {
           "Raise RuntimeError unless the triangulation is Delaunay and the facet "
           "flags are consistent.");
 
-  // MeshDistance (mesh_distance.hpp): queries are const and build nothing,
-  // so two threads may query one object at once: no lock, GIL released.
   m.def(
       "select_independent",
       [](const InArray& centres, const InArray& radii) {

@@ -173,6 +173,16 @@ void register_volume_sampler(py::module_& m) {
           py::arg("points"), py::arg("gradient") = false,
           "(values (n,), gradient (n, 3) or None) at world points (n, 3); the GIL "
           "is released while sampling.")
+      .def(
+          "coefficients",
+          [](const VolumeSampler& self) {
+            const auto& s = self.shape();
+            py::array_t<double> out({s[0], s[1], s[2]});
+            std::copy(self.coefficients().begin(), self.coefficients().end(),
+                      out.mutable_data());
+            return out;
+          },
+          "A copy of the coefficients, (n0, n1, n2) float64 (for degree 1 the samples).")
       .def_property_readonly("degree", &VolumeSampler::degree)
       .def_property_readonly("shape", [](const VolumeSampler& self) {
         const auto& s = self.shape();

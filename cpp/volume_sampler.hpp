@@ -28,6 +28,7 @@ class VolumeSampler {
 
   int degree() const { return degree_; }
   const std::array<std::int64_t, 3>& shape() const { return shape_; }
+  const std::vector<double>& coefficients() const { return c_; }
 
  private:
   template <int K>

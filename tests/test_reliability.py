@@ -16,7 +16,7 @@ from rdmesh.refine.stages import Candidates
 from rdmesh.sampling import roots
 from rdmesh.sampling.roots import SegmentSamples, line_crossings
 from rdmesh.surfaces import SURFACES
-from rdmesh.topology.regions import regions
+from rdmesh._regions import regions
 from rdmesh.topology.snapshot import Snapshot
 
 

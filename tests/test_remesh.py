@@ -102,6 +102,14 @@ def check_remesh(
     rb = ms.radius / radius_fraction
     db = rb / 10
     mesh = rdmesh.mesh_surface(ms, angle_bound=30, radius_bound=rb, distance_bound=db)
+    if len(ms.self_intersections):
+        # Noise can fold faces through each other: the input then intersects itself,
+        # which the report names and which marks the mesh incomplete (issue 30); the
+        # remesh of the union it encloses is still checked below.
+        assert not mesh.complete
+        assert "intersects itself" in mesh.stats["stop_reason"]
+        assert mesh.report["input"]["self_intersections"]["pairs"] == len(ms.self_intersections)
+        mesh.complete = True
     # The input's topology when it is a closed manifold (marching cubes may already
     # have joined parts closer than its grid), else the surface's.
     if closed_manifold_problems(ms.faces, len(ms.vertices)) == []:

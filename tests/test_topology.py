@@ -21,7 +21,7 @@ from rdmesh.sampling.critical import critical_points
 from rdmesh.sampling.grid import grid_scan
 from rdmesh.sampling.probes import Probes, unit_normals
 from rdmesh.surfaces import SURFACES
-from rdmesh.topology.regions import regions
+from rdmesh._regions import regions
 from rdmesh.topology.tests import TESTS, silhouette_test
 from scipy.spatial import cKDTree
 

@@ -89,12 +89,17 @@ def mesh_surface(
     max_vertices : int, optional
         Stop when the mesh would exceed this many samples.
     time_limit : float, optional
-        Stop after about this many seconds: a round predicted (from the last
-        round, per inserted point) to end past the limit is not started.
+        Stop after about this many seconds: a round predicted to end past the
+        limit is not started (the prediction: the run's time per point
+        inserted or present, times the round's points, and at least the last
+        round's time); the exception's message says when it stopped and why.
     seed_resolution : int, default 64
         Cells across the bounding ball of the grid scan that finds the
-        components; components narrower than about 1.7 cells may be missed (for
-        expression surfaces an interval subdivision searches for them too).
+        components; components narrower than about 1.7 cells may be missed.
+        Expression surfaces (an interval subdivision) and closed volumes (a
+        search on the interpolant) also get a proven search that seeds every
+        component, with either method and with or without ``certify``; the
+        report's ``seeding`` then says ``proven``.
     progress : bool or callable, default False
         True shows a progress bar on stderr; a callable receives a dict
         (``round``, ``stage``, ``inserted``, ``vertices``, ``seconds``) after

@@ -148,8 +148,11 @@ class MeshDistance:
     def winding_number(
         self, points: npt.ArrayLike, beta: float = 2.5
     ) -> npt.NDArray[np.float64]: ...
+    def self_intersections(self) -> npt.NDArray[np.int64]: ...  # (k, 2) face pairs
     @property
     def has_side(self) -> bool: ...
+    @property
+    def has_pseudo_normals(self) -> bool: ...
     @property
     def side_failure(self) -> str: ...
     @property
@@ -239,6 +242,7 @@ class VolumeSampler:
         npt.NDArray[np.float64],  # (n,) values
         npt.NDArray[np.float64] | None,  # (n, 3) gradients, if asked
     ]: ...
+    def coefficients(self) -> npt.NDArray[np.float64]: ...  # (n0, n1, n2) copy
     @property
     def degree(self) -> int: ...
     @property

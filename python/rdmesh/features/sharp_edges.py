@@ -8,9 +8,13 @@ vertices where the chain turns by at least the feature angle.
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from .._vectors import row_norms
+
+log = logging.getLogger("rdmesh")
 
 
 def sharp_edges(faces: np.ndarray, normals: np.ndarray, angle: float) -> np.ndarray:
@@ -113,3 +117,89 @@ def chain_edges(
         polylines.append(np.array(path, np.int64))
         closed.append(True)
     return polylines, closed
+
+
+#: Sharp-edge chains shorter than this (edges) with a dangling end are noise.
+MIN_CHAIN_EDGES = 4
+#: feature_angle="auto": this angle, and no sharp edges at all when they look
+#: like noise: at least NOISE_CURVES curves, the median at most NOISE_CHAIN
+#: edges long, and fewer than NOISE_SHARE of all edges sharp (a CAD part's
+#: creases are long, or a large share of its edges).
+AUTO_FEATURE_ANGLE, NOISE_CURVES, NOISE_CHAIN, NOISE_SHARE = 60.0, 50, 2, 0.2
+
+
+def feature_angle_of(angle) -> float | None:
+    """The checked ``feature_angle``: None, or a number of degrees in (0, 180)
+    ("auto" is resolved by :func:`sharp_curves`)."""
+    if angle is None:
+        return None
+    try:
+        a = float(angle)
+    except (TypeError, ValueError):
+        a = float("nan")
+    if isinstance(angle, bool) or not 0.0 < a < 180.0:
+        raise ValueError(
+            f"feature_angle must be None, 'auto' or degrees in (0, 180), got {angle!r}"
+        )
+    return a
+
+
+def sharp_curves(
+    vertices: np.ndarray, faces: np.ndarray, feature_angle
+) -> tuple[float | None, np.ndarray, list[np.ndarray]]:
+    """A mesh's sharp edges chained into curves, for ``MeshSurface``.
+
+    Returns ``(angle, edges (E, 2), curves)``: the angle used, the kept sharp
+    edges, and their chains as polylines (a closed loop repeats its first
+    point). Chains of fewer than :data:`MIN_CHAIN_EDGES` edges with a dangling
+    end are left out as noise; with ``feature_angle="auto"`` everything is
+    left out when the whole looks like noise (see :data:`NOISE_CURVES`).
+    """
+    auto = isinstance(feature_angle, str) and feature_angle == "auto"
+    angle = AUTO_FEATURE_ANGLE if auto else feature_angle_of(feature_angle)
+    none = (angle, np.zeros((0, 2), np.int64), [])
+    if angle is None:
+        return none
+    a = np.cross(
+        vertices[faces[:, 1]] - vertices[faces[:, 0]],
+        vertices[faces[:, 2]] - vertices[faces[:, 0]],
+    )
+    n = a / np.maximum(np.linalg.norm(a, axis=1), 1e-300)[:, None]
+    edges = sharp_edges(faces, n, angle)
+    chains, closed = chain_edges(vertices, edges, angle)
+    deg = np.bincount(edges.ravel(), minlength=len(vertices))
+    keep = [
+        cl or len(c) - 1 >= MIN_CHAIN_EDGES or (deg[c[0]] >= 3 and deg[c[-1]] >= 3)
+        for c, cl in zip(chains, closed, strict=True)
+    ]
+    dropped = len(keep) - sum(keep)
+    chains = [c for c, k in zip(chains, keep, strict=True) if k]
+    closed = [cl for cl, k in zip(closed, keep, strict=True) if k]
+    if not chains:
+        return none
+    kept = np.concatenate(
+        [
+            np.c_[c, np.roll(c, -1)] if cl else np.c_[c[:-1], c[1:]]
+            for c, cl in zip(chains, closed, strict=True)
+        ]
+    )
+    curves = [
+        vertices[np.r_[c, c[:1]]] if cl else vertices[c]
+        for c, cl in zip(chains, closed, strict=True)
+    ]
+    lengths = [len(c) - 1 for c in curves]
+    if auto and (
+        len(lengths) >= NOISE_CURVES
+        and float(np.median(lengths)) <= NOISE_CHAIN
+        and len(kept) < NOISE_SHARE * 1.5 * len(faces)
+    ):
+        log.warning(
+            "MeshSurface: %d sharp edges in %d short curves look like noise; none are kept "
+            "(give feature_angle= to keep them)", len(kept), len(curves),
+        )  # fmt: skip
+        return none
+    log.info(
+        "MeshSurface: %d sharp edges (normals %g degrees apart or more) in %d curves; %d short "
+        "dangling chains left out (noise)", len(kept), angle, len(curves), dropped,
+    )  # fmt: skip
+    return angle, np.sort(kept, axis=1), curves

@@ -30,7 +30,7 @@ from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
-from ..topology.regions import describe_regions, regions
+from .._regions import describe_regions, regions
 from .check import check_restricted
 from .criteria import FacetCriteria
 from .floor import SpacingFloor
@@ -59,14 +59,23 @@ class Budget:
     max_vertices: int | None = None
     time_limit: float | None = None
 
-    def exceeded(self, vertices: int, seconds: float, next_round: float = 0.0) -> str | None:
+    def exceeded(
+        self, vertices: int, seconds: float, next_round: float = 0.0, points: int = 0
+    ) -> str | None:
         """Which budget has run out, in words, or None.
 
-        ``next_round`` is the predicted time of another round: a round that
-        would end past the time limit is not started.
+        ``next_round`` is the predicted time of another round (inserting
+        ``points``): a round that would end past the time limit is not
+        started, and the message says so.
         """
         if self.time_limit is not None and seconds + next_round > self.time_limit:
-            return f"time_limit={self.time_limit:g}s reached"
+            if seconds >= self.time_limit:
+                return f"time_limit={self.time_limit:g}s reached after {seconds:.1f}s"
+            return (
+                f"time_limit={self.time_limit:g}s reached: stopped after {seconds:.1f}s, "
+                f"before a round of {points} points predicted to take {next_round:.1f}s "
+                "would end past the limit"
+            )
         if self.max_vertices is not None and vertices >= self.max_vertices:
             return f"max_vertices={self.max_vertices} reached"
         return None
@@ -144,8 +153,11 @@ class Mesher:
         phases = Phases(plan.phases, floor, _boundary_placer(self, plan))
         cap = self.budget.max_vertices
         # A round's cost (insert, update, stages, select) grows with the points
-        # it inserts: the next round is predicted from this one per point.
-        cycle_start, last_batch = t0, max(len(self.vertices), 1)
+        # it inserts: the next round is predicted from the loop's cost per point
+        # inserted or present (one round's is unstable: a test round that inserts
+        # a few points into a large mesh costs much per point), and at least as
+        # long as the last round.
+        cycle_start, loop_start, done = t0, time.perf_counter(), 0
         while stop is None:
             self.rounds += 1
             self.pipeline.update(self.vertices, self.weights)
@@ -165,11 +177,12 @@ class Mesher:
             with self.timer("select"):
                 batch = found.centres[core.select_independent(found.centres, found.radii)]
             now = time.perf_counter()
-            per_point = (now - cycle_start) / last_batch
-            stop = self.budget.exceeded(len(self.vertices), now - t0, per_point * len(batch))
+            per_point = (now - loop_start) / max(done, len(self.vertices), 1)
+            predicted = max(now - cycle_start, per_point * len(batch)) if done else 0.0
+            stop = self.budget.exceeded(len(self.vertices), now - t0, predicted, len(batch))
             if stop:
                 break
-            cycle_start, last_batch = now, max(len(batch), 1)
+            cycle_start, done = now, done + len(batch)
             if cap is not None and len(self.vertices) + len(batch) > cap:
                 batch = batch[: max(0, cap - len(self.vertices))]
                 stop = f"max_vertices={cap} reached"
@@ -404,6 +417,11 @@ def _result(
         mesh.complete = False
         mesh.stats["stop_reason"] = "interrupted during the report"
         raise Interrupted("interrupted during the report", mesh=mesh, reason="interrupted")
+    problems = getattr(m.surface, "input_report", lambda _: None)(mesh.unresolved)
+    if problems is not None and mesh.report is not None:
+        # What in the input stands in the way of its topology (issue 30).
+        mesh.report["input"] = problems
+        mesh.report["statement"] += " The input: " + problems["statement"] + "."
     if stop:
         mesh.complete = False
         mesh.stats["stop_reason"] = stop
@@ -415,6 +433,9 @@ def _result(
             f"{len(f.corners) - f.corners_kept} corners not kept (SurfaceMesh.features.failed)"
         )
         log.warning("%s", mesh.stats["stop_reason"])
+    elif problems is not None and problems["incomplete"]:
+        mesh.complete = False
+        mesh.stats["stop_reason"] = problems["statement"]
     elif len(mesh.unresolved):
         mesh.complete = False
         mesh.stats["stop_reason"] = (

@@ -25,8 +25,9 @@ from .._errors import EmptySurfaceError
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
 from ..features import Balls, FeatureGraph, ProtectingBalls, protect
 from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
+from ..sampling.components import find_components
 from ..sampling.critical import CriticalPoints, critical_points
-from ..sampling.discovery import Discovery, discover
+from ..sampling.discovery import Discovery
 from ..sampling.domain import clip_box, depth, on_clip_surface
 from ..sampling.grid import GridScan, fibonacci_sphere, grid_scan
 from ..sampling.probes import Probes, surface_probes, unit_normals
@@ -265,14 +266,13 @@ def _scan(
     certify: bool,
     clipped: bool = False,
 ) -> tuple[GridScan, Discovery | None]:
-    """The grid scan (seeds, probes, the bounding-sphere check); to certify,
-    plus the interval subdivision's points, which include one on every
-    component when it is proven (:mod:`rdmesh.sampling.discovery`)."""
+    """The grid scan (seeds, probes, the bounding-sphere check), plus, where
+    the surface has one (expressions, closed volumes; with or without
+    ``certify``), the proven component search's points, which include one on
+    every component when it is proven (:mod:`rdmesh.sampling.components`)."""
     scan = grid_scan(surface, rng, resolution, spacing=spacing, clipped=clipped)
-    if not certify:
-        return scan, None
-    found = discover(surface, surface.f, rng)
-    if len(found.points) == 0:
+    found = find_components(surface, rng, clipped)
+    if found is None or len(found.points) == 0:
         return scan, found
     # Grid seeds right next to a discovery point only add short edges.
     seeds = np.concatenate([found.points, _away(scan.seeds, found.points, 0.5 * scan.spacing)])

@@ -75,6 +75,8 @@ class Discovery:
     boxes : number of good boxes (leaves that may hold the surface).
     side : the smallest good box's side.
     evaluations : interval evaluations spent (boxes, faces, edge pieces).
+    basis : what the seeding rests on, in words, when another search than the
+        interval subdivision made it (volumes: :mod:`rdmesh.sampling.volume_components`).
     """
 
     points: np.ndarray
@@ -83,6 +85,7 @@ class Discovery:
     boxes: int
     side: float
     evaluations: int
+    basis: str | None = None
 
 
 def discover(surface: ImplicitSurface, expr: Expression, rng: np.random.Generator) -> Discovery:

@@ -8,15 +8,16 @@ remeshes it with the angle bound, the sizing field and the distance bound.
 from __future__ import annotations
 
 import logging
-import math
 from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from .._errors import MeshInputError
+from .._tol import REGION_LINK
 from ..core import MeshDistance
-from ..features.sharp_edges import chain_edges, sharp_edges
+from ..features.sharp_edges import sharp_curves
+from .._regions import describe_regions, regions
 from .oracle import ImplicitSurface
 
 log = logging.getLogger("rdmesh")
@@ -48,31 +49,12 @@ DISTANCE_CAP = 0.1
 #: Two faces sharing an edge whose normals differ by more than this (degrees)
 #: form a fold: a razor-thin wedge with no feature size (logged as a warning).
 FOLD_ANGLE = 150.0
+#: Two sheets closer than this (times R) where points were refused are reported.
+CLOSE_SHEETS = 0.02
+#: Probes along the normal that measure the gap between sheets.
+GAP_SAMPLES = 64
 #: Points evaluated per call of the C++ core (bounds the temporary arrays).
 _CHUNK = 1 << 18
-
-
-#: Sharp-edge chains shorter than this (edges) with a dangling end are noise.
-MIN_CHAIN_EDGES = 4
-#: feature_angle="auto": this angle, and no sharp edges at all when they look
-#: like noise: at least NOISE_CURVES curves, the median at most NOISE_CHAIN
-#: edges long, and fewer than NOISE_SHARE of all edges sharp (a CAD part's
-#: creases are long, or a large share of its edges).
-AUTO_FEATURE_ANGLE, NOISE_CURVES, NOISE_CHAIN, NOISE_SHARE = 60.0, 50, 2, 0.2
-
-
-def _feature_angle(angle: Any) -> float | None:
-    """The checked ``feature_angle``: None, or a number of degrees in (0, 180)
-    ("auto" is handled by the caller)."""
-    if angle is None:
-        return None
-    try:
-        a = float(angle)
-    except (TypeError, ValueError):
-        a = math.nan
-    if isinstance(angle, bool) or not 0.0 < a < 180.0:
-        raise ValueError(f"feature_angle must be None or degrees in (0, 180), got {angle!r}")
-    return a
 
 
 def _as_arrays(mesh: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -188,9 +170,9 @@ class MeshSurface(ImplicitSurface):
     feature_angle : float, "auto" or None, default "auto"
         Edges whose two faces' normals differ by at least this many degrees
         are sharp (CGAL's ``detect_features`` rule); they are chained into
-        feature curves, split at corners (vertices with other than two sharp
-        edges, or where the chain turns by at least this angle), and kept in
-        the remesh by protecting balls (:mod:`rdmesh.features`). "auto": 60
+        curves, split at corners (vertices with other than two sharp edges,
+        or where the chain turns by at least this angle), and kept in the
+        remesh by protecting balls (:mod:`rdmesh.features`). "auto": 60
         degrees, unless the sharp edges look like noise (at least 50 curves,
         the median one at most 2 edges long, and fewer than 20 % of the edges
         sharp, as on a noisy scan): then none, with a warning. None: none.
@@ -213,12 +195,22 @@ class MeshSurface(ImplicitSurface):
         Edges whose two faces' normals differ by more than 150 degrees
         (razor-thin wedges; see Notes). Nonzero counts are logged as a warning.
     sharp_edges : (E, 2) int64
-        The sharp edges found with ``feature_angle`` (vertex index pairs) and
-        kept: chains of fewer than 4 edges with a dangling end (where no other
-        sharp edge meets them) are left out as noise.
+        The sharp edges kept (vertex index pairs; short dangling chains are
+        left out as noise).
     sharp_curves : list of (k, 3) float64
-        Those edges chained into polylines (a closed loop repeats its first
-        point last).
+        Those edges chained into polylines.
+    self_intersections : (k, 2) int64
+        Pairs of faces that cross, for a closed manifold input that
+        intersects itself (CGAL's ``self_intersections``); empty otherwise.
+        A run on such an input returns its mesh with ``complete=False`` and
+        ``report["input"]`` naming where (:meth:`input_report`).
+    lipschitz : float or None
+        1 when ``f`` is the clamped signed distance (closed input), so the
+        seeding grid skips the nodes whose sign a coarser grid decides;
+        None with the winding-number sign.
+    unit_gradient : bool
+        The gradient is a unit vector wherever ``f`` is differentiable
+        (closed input): the report's singular-point search is skipped.
 
     Raises
     ------
@@ -247,8 +239,13 @@ class MeshSurface(ImplicitSurface):
 
     - *Closed* meshes (every edge in two faces, consistently oriented,
       combinatorially manifold, no face of zero area, not self-intersecting):
-      CGAL's ``Side_of_triangle_mesh`` (ray casting with exact predicates).
-      Inward-oriented meshes (negative volume) are flipped first.
+      the sign of ``(p - c) . n`` at the closest point ``c``, with ``n`` the
+      angle-weighted pseudo-normal of the face, edge or vertex ``c`` lies on
+      (exact for such meshes: Baerentzen and Aanaes 2005); CGAL's
+      ``Side_of_triangle_mesh`` (ray casting with exact predicates) where
+      that product is too close to 0, for far points, and for every point if
+      a face's normal points into the solid. Inward-oriented meshes
+      (negative volume) are flipped first.
     - *Everything else*: the generalized winding number ``w`` (Jacobson et
       al. 2013; far clusters by their dipole, Barill et al. 2018, within a
       few percent), ``f = clip(4 (1 - 2w), -1, 1) * distance``. Away from
@@ -278,11 +275,10 @@ class MeshSurface(ImplicitSurface):
     not proven: it holds when the size bound is below the feature size of
     the shape the mesh approximates (scans, organic shapes). Sharp creases
     (CAD models) are kept through ``feature_angle``: each sharp-edge chain is
-    covered by protecting balls centred on the input's own edges, so the
-    output has a vertex at every corner and its edges follow every chain
-    (``SurfaceMesh.features`` reports the check). Creases flatter than the
-    feature angle are not protected and come out chamfered, by about the
-    distance bound. Razor-thin wedges (two faces
+    covered by protecting balls centred on the input's own edges (the output
+    has a vertex at every corner and edges along every chain;
+    ``SurfaceMesh.features`` reports the check). Flatter creases come out
+    chamfered, by about the distance bound. Razor-thin wedges (two faces
     folded onto each other, as when noise flips a sliver triangle) have no
     feature size at all: if the bounds are fine enough to resolve them, the
     facets whose dual crosses both sheets of a fold need refinement points
@@ -292,12 +288,7 @@ class MeshSurface(ImplicitSurface):
     """
 
     def __init__(
-        self,
-        mesh: Any,
-        *,
-        name: str = "mesh",
-        feature_angle: float | str | None = "auto",
-        features: Any = None,
+        self, mesh: Any, *, name: str = "mesh", feature_angle: Any = "auto", features: Any = None
     ) -> None:
         v, f = _clean(*_as_arrays(mesh))
         area = _area_vectors(v, f)
@@ -333,9 +324,14 @@ class MeshSurface(ImplicitSurface):
                 self.folds,
                 FOLD_ANGLE,
             )
+        #: f is this-Lipschitz (the clamped signed distance), or None (winding sign).
+        self.lipschitz: float | None = None
+        #: The gradient is a unit vector wherever f is differentiable.
+        self.unit_gradient = False
         if self._core.has_side:
             self.sign_method = "side"
             self.ambiguous_share = 0.0
+            self.lipschitz, self.unit_gradient = 1.0, True
         else:
             self.sign_method = "winding"
             self.ambiguous_share = self._ambiguity(v, f, norms)
@@ -356,63 +352,100 @@ class MeshSurface(ImplicitSurface):
                     100 * self.ambiguous_share,
                 )
         self._orient_normals(v, f, norms)
-        auto = isinstance(feature_angle, str) and feature_angle == "auto"
-        self.feature_angle = AUTO_FEATURE_ANGLE if auto else _feature_angle(feature_angle)
-        self.sharp_edges, self.sharp_curves = self._sharp(v, f, features)
-        share = len(self.sharp_edges) / (1.5 * len(f))
-        lengths = [len(c) - 1 for c in self.sharp_curves]
-        noisy = (
-            len(lengths) >= NOISE_CURVES
-            and float(np.median(lengths)) <= NOISE_CHAIN
-            and share < NOISE_SHARE
+        self._find_self_intersections()
+        off = isinstance(features, str) and features == "none"
+        self.feature_angle, self.sharp_edges, self.sharp_curves = sharp_curves(
+            v, f, None if off else feature_angle
         )
-        if auto and noisy:
-            log.warning(
-                "MeshSurface: %d sharp edges in %d short curves look like noise; none are "
-                "kept (give feature_angle= to keep them)",
-                len(self.sharp_edges), len(self.sharp_curves),
-            )  # fmt: skip
-            self.sharp_edges, self.sharp_curves = np.zeros((0, 2), np.int64), []
         super().__init__(
             self._signed_distance, (centre, radius), gradient=self._gradient, name=name,
             features=features,
         )  # fmt: skip
 
-    def _sharp(self, v, f, features) -> tuple[np.ndarray, list[np.ndarray]]:
-        """The sharp edges and their chains (none with ``feature_angle=None`` or
-        ``features="none"``)."""
-        if self.feature_angle is None or (isinstance(features, str) and features == "none"):
-            return np.zeros((0, 2), np.int64), []
-        # Unit normals as the faces are oriented (the outward-flipped ones are
-        # for the gradient only).
-        a = _area_vectors(v, f)
-        n = a / np.maximum(np.linalg.norm(a, axis=1), 1e-300)[:, None]
-        edges = sharp_edges(f, n, self.feature_angle)
-        chains, closed = chain_edges(v, edges, self.feature_angle)
-        # Noise (a flipped sliver, a spike) makes short chains that end in
-        # nothing; creases are loops, end at junctions, or run on.
-        deg = np.bincount(edges.ravel(), minlength=len(v))
-        keep = [
-            cl or len(c) - 1 >= MIN_CHAIN_EDGES or (deg[c[0]] >= 3 and deg[c[-1]] >= 3)
-            for c, cl in zip(chains, closed, strict=True)
-        ]
-        dropped = len(keep) - sum(keep)
-        chains = [c for c, k in zip(chains, keep, strict=True) if k]
-        closed = [cl for cl, k in zip(closed, keep, strict=True) if k]
-        curves = [v[np.r_[c, c[:1]]] if cl else v[c] for c, cl in zip(chains, closed, strict=True)]
-        kept = np.zeros((0, 2), np.int64)
-        if chains:
-            kept = np.concatenate(
-                [np.c_[c, np.roll(c, -1)] if cl else np.c_[c[:-1], c[1:]]
-                 for c, cl in zip(chains, closed, strict=True)]
-            )  # fmt: skip
-        if len(edges):
-            log.info(
-                "MeshSurface: %d sharp edges (normals %g degrees apart or more) in %d curves; "
-                "%d short dangling chains left out (noise)",
-                len(kept), self.feature_angle, len(curves), dropped,
-            )  # fmt: skip
-        return np.sort(kept, axis=1), curves
+    def _find_self_intersections(self) -> None:
+        """``self_intersections``: the pairs of faces that cross (CGAL's
+        Polygon_mesh_processing::self_intersections), for closed manifold inputs."""
+        self.self_intersections = self._core.self_intersections()
+        if len(self.self_intersections):
+            where = self.vertices[self.faces[self.self_intersections[:, 0]]].mean(axis=1)
+            log.warning(
+                "MeshSurface: the mesh intersects itself (%d pairs of faces cross, %s); "
+                "its topology is not that of a surface: the remesh follows the union of "
+                "what it encloses (winding number) and is marked incomplete",
+                len(self.self_intersections),
+                describe_regions(regions(where, REGION_LINK * float(np.ptp(self.vertices)))),
+            )
+
+    def input_report(self, unresolved: np.ndarray | None = None) -> dict | None:
+        """What in the input stands in the way of its topology, for the mesh's report.
+
+        Parameters
+        ----------
+        unresolved : (k, 3) array, optional
+            The run's refused refinement points: where two sheets of the
+            input are closer than refinement can separate, the gap is
+            measured there.
+
+        Returns
+        -------
+        dict or None
+            ``self_intersections`` (``pairs``, ``regions``) when the input
+            intersects itself, ``close_sheets`` (``gap``, ``regions``) when
+            refused points lie where two sheets of the input nearly touch,
+            ``incomplete`` (the input alone rules out its topology) and a
+            ``statement``; None when there is nothing to say.
+        """
+        out: dict = {"incomplete": False}
+        said = []
+        pairs = self.self_intersections
+        if len(pairs):
+            where = self.vertices[self.faces[pairs[:, 0]]].mean(axis=1)
+            found = regions(where, REGION_LINK * self.radius)
+            out["self_intersections"] = {"pairs": len(pairs), "regions": found}
+            out["incomplete"] = True
+            said.append(
+                f"the input mesh intersects itself ({len(pairs)} pairs of faces cross, "
+                f"{describe_regions(found)}): it bounds no solid with its topology, so the "
+                "remesh (of the union it encloses, by the winding number) cannot keep it"
+            )
+        if unresolved is not None and len(unresolved):
+            gap = self.sheet_gap(unresolved)
+            close = gap < CLOSE_SHEETS * self.radius
+            if close.any():
+                found = regions(unresolved[close], REGION_LINK * self.radius)
+                out["close_sheets"] = {
+                    "points": int(close.sum()),
+                    "gap": float(np.median(gap[close])),
+                    "regions": found,
+                }
+                said.append(
+                    f"two sheets of the input nearly touch where {int(close.sum())} refinement "
+                    f"points were refused (median gap {np.median(gap[close]):.3g}, "
+                    f"{describe_regions(found)}): closer than the spacing floor lets "
+                    "refinement separate them"
+                )
+        if not said:
+            return None
+        out["statement"] = "; ".join(said)
+        return out
+
+    def sheet_gap(self, points: np.ndarray) -> np.ndarray:
+        """Distance across the thinnest part (inside or outside) of the input at
+        points on it, ``(k,)``: twice the distance from the point to the
+        medial axis along the closest face's normal, sampled up to
+        ``CLOSE_SHEETS * R`` (that value where it is farther)."""
+        closest, face = self.closest_points(points)
+        n = self._normals[face]
+        t = np.linspace(0.0, CLOSE_SHEETS * self.radius, GAP_SAMPLES + 1)[1:]
+        gaps = []
+        for sign in (1.0, -1.0):
+            probe = closest[None] + sign * t[:, None, None] * n[None]
+            d = np.abs(self.signed_distance(probe.reshape(-1, 3))).reshape(len(t), -1)
+            # Beyond the medial axis the distance falls below the probe's offset.
+            behind = d < t[:, None] * (1 - 1e-6)
+            first = np.where(behind.any(axis=0), np.argmax(behind, axis=0), len(t) - 1)
+            gaps.append(2.0 * t[first])
+        return np.minimum(*gaps)
 
     def _orient_normals(self, v: np.ndarray, f: np.ndarray, norms: np.ndarray) -> None:
         """Flip the normals (used for the gradient on the mesh) of faces whose front is inside.
@@ -458,7 +491,9 @@ class MeshSurface(ImplicitSurface):
         if len(pts) == 0:
             return np.zeros(0)
         # Farther than cap + gap from every vertex means farther than cap from the mesh.
-        dv, _ = self._kdtree.query(pts, distance_upper_bound=self.cap + self._vertex_gap)
+        dv, _ = self._kdtree.query(
+            pts, distance_upper_bound=self.cap + self._vertex_gap, workers=-1
+        )
         near = np.flatnonzero(np.isfinite(dv))
         far = np.flatnonzero(~np.isfinite(dv))
         out = np.empty(len(pts))

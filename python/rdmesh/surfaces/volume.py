@@ -23,6 +23,7 @@ from .._errors import EmptySurfaceError
 from .._validate import choice
 from ..core import VolumeSampler
 from .oracle import ImplicitSurface
+from .trilinear import regular_isovalue
 
 log = logging.getLogger("rdmesh")
 
@@ -252,6 +253,13 @@ class VolumeSurface(ImplicitSurface):
     Attributes
     ----------
     isovalue : float
+        The level meshed: the one asked for, except with linear interpolation
+        where it is a saddle value of the trilinear interpolant (its
+        isosurface pinches there); it is then moved off every saddle value,
+        by at most 1 % of the data range, towards a smaller inside, and a
+        warning is logged (:mod:`rdmesh.surfaces.trilinear`).
+    requested_isovalue : float
+        The isovalue asked for (or the default).
     value_scale : float
         The median data slope (value per unit length) across the isosurface
         along the grid edges; ``f`` is divided by it, so near the surface ``f``
@@ -343,6 +351,17 @@ class VolumeSurface(ImplicitSurface):
                 f"isovalue {iso:g} is outside the range of the volume's data, "
                 f"({lo:g}, {hi:g}): there is no isosurface"
             )
+        #: The isovalue asked for; ``isovalue`` is the one meshed (linear: off saddle values).
+        self.requested_isovalue = iso
+        if interpolation == "linear":
+            iso = regular_isovalue(data, iso, inside)
+            if iso != self.requested_isovalue:
+                log.warning(
+                    "isovalue %g is a saddle value of the trilinear interpolant (its "
+                    "isosurface pinches to a point there): meshing %g instead",
+                    self.requested_isovalue,
+                    iso,
+                )
         self.isovalue = iso
         self.inside = inside
         self.interpolation = interpolation

@@ -58,7 +58,7 @@ from ..sampling.critical import CriticalPoints
 from ..sampling.discovery import Discovery
 from ..sampling.probes import Probes
 from .complex import component_topology
-from .regions import describe_regions, regions
+from .._regions import describe_regions, regions
 from .singular import singular_points
 from .snapshot import Snapshot
 from .tests import TESTS, Violations
@@ -323,12 +323,17 @@ def _seeding(discovery: Discovery | None, link: float) -> dict[str, Any]:
             "basis": "a grid scan (and critical points of a height function): components "
             "smaller than about two grid cells can be missed",
         }
+    basis = discovery.basis
+    if basis is None:
+        basis = (
+            "interval subdivision (Snyder's box condition): a seed on every component"
+            if discovery.proven
+            else "interval subdivision left boxes or edges unresolved there: components may "
+            "be missed there"
+        )
     return {
         "level": "proven" if discovery.proven else "sampled",
-        "basis": "interval subdivision (Snyder's box condition): a seed on every component"
-        if discovery.proven
-        else "interval subdivision left boxes or edges unresolved there: components may "
-        "be missed there",
+        "basis": basis,
         "seeds": len(discovery.points),
         "boxes": discovery.boxes,
         "smallest_box": float(discovery.side),

@@ -38,7 +38,8 @@ def singular_points(surface: ImplicitSurface, probes: Probes, seed: int = 0) -> 
     (k, 3) singular points (de-duplicated to about ``1e-3 R``).
     """
     pts = probes.points
-    if len(pts) == 0:
+    if len(pts) == 0 or getattr(surface, "unit_gradient", False):
+        # A signed distance (MeshSurface) has a unit gradient wherever it has one.
         return np.zeros((0, 3))
     R = surface.radius
     gn = row_norms(surface.grad(pts))

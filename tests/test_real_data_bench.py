@@ -1,0 +1,47 @@
+"""benchmarks/real_data.py's look-alike inputs and measures (issue 30)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+pytest.importorskip("skimage")
+
+import rdmesh  # noqa: E402
+import real_data  # noqa: E402
+
+
+def test_topology_of_a_tetrahedron_and_an_open_fan():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    assert real_data.topology(v, f) == {"components": 1, "euler": [2], "closed": True}
+    assert real_data.topology(v, f[:3])["closed"] is False
+    assert real_data.min_angle(v, f) == pytest.approx(45.0)
+
+
+def test_genus2_thin_is_a_closed_genus_2_solid():
+    v, f = real_data.genus2_thin(h=0.03)
+    assert real_data.topology(v, f) == {"components": 1, "euler": [-2], "closed": True}
+
+
+def test_folded_is_a_closed_sphere():
+    v, f = real_data.folded(h=0.03)
+    assert real_data.topology(v, f) == {"components": 1, "euler": [2], "closed": True}
+
+
+def test_hausdorff_of_a_mesh_with_itself_is_zero_and_grows_with_a_shift():
+    v, f = real_data.folded(h=0.05)
+    ref = rdmesh.MeshSurface((v, f))
+    assert real_data.hausdorff(ref.vertices, ref.faces, ref, n=2000) < 1e-9
+    shifted = real_data.hausdorff(ref.vertices + [0.01, 0, 0], ref.faces, ref, n=2000)
+    assert 0.005 < shifted <= 0.0100001
+
+
+def test_specks_volume_has_six_interpolant_components():
+    vol = real_data.specks()
+    surface = rdmesh.VolumeSurface(vol, isovalue=0.5)
+    assert real_data._reference(surface)["components"] == 6
