@@ -11,12 +11,12 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 import rdmesh
+from rdmesh._regions import regions
 from rdmesh.refine import mesher as mesher_module
 from rdmesh.refine.stages import Candidates
 from rdmesh.sampling import roots
 from rdmesh.sampling.roots import SegmentSamples, line_crossings
 from rdmesh.surfaces import SURFACES
-from rdmesh._regions import regions
 from rdmesh.topology.snapshot import Snapshot
 
 

@@ -17,11 +17,11 @@ from meshcheck import (
     face_components,
     triangle_angles_deg,
 )
+from rdmesh._regions import regions
 from rdmesh.sampling.critical import critical_points
 from rdmesh.sampling.grid import grid_scan
 from rdmesh.sampling.probes import Probes, unit_normals
 from rdmesh.surfaces import SURFACES
-from rdmesh._regions import regions
 from rdmesh.topology.tests import TESTS, silhouette_test
 from scipy.spatial import cKDTree
 

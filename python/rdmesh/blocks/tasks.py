@@ -200,7 +200,8 @@ def mesh_task(job: MeshJob) -> BlockResult:
     if mesh.features is not None:
         res.held = mesh.features.held
         res.failed = mesh.features.failed
-        res.sites = repair_sites(mesh, REPAIR_ANGLE)
+        if mesh.complete:  # a stopped run's thin triangles say nothing about its balls
+            res.sites = repair_sites(mesh, REPAIR_ANGLE)
     keep = ("seconds", "rounds", "evaluations", "samples", "vertices", "faces", "unresolved")
     res.stats = {k: mesh.stats[k] for k in keep if k in mesh.stats}
     res.stats["balls"] = len(job.balls)

@@ -448,6 +448,8 @@ class _Blocks:
             repairs.update(self.project(net))
             shares = [share(net, [face_ids[f] for f in lay.faces_of(b)]) for b in self.blocks]
             todo = [i for i, s in enumerate(shares) if given[i] is None or not _same(given[i], s)]
+            if not todo:  # shrinking changed no block's balls: meshing again changes nothing
+                return results, net, repairs  # type: ignore[return-value]
             jobs = [
                 MeshJob(self.blocks[i], i, lay, self.params,
                         self.source.piece(*lay.index_box(self.blocks[i]), self.degree),

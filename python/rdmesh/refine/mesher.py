@@ -20,6 +20,7 @@ import numpy as np
 
 from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
+from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
 from ..features.check import check_features, repair_sites
 from ..io.result import SurfaceMesh
@@ -30,7 +31,6 @@ from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
-from .._regions import describe_regions, regions
 from .check import check_restricted
 from .criteria import FacetCriteria
 from .floor import SpacingFloor

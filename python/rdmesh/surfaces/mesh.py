@@ -14,10 +14,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .._errors import MeshInputError
+from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
 from ..core import MeshDistance
 from ..features.sharp_edges import sharp_curves
-from .._regions import describe_regions, regions
 from .oracle import ImplicitSurface
 
 log = logging.getLogger("rdmesh")

@@ -52,13 +52,13 @@ from typing import Any
 
 import numpy as np
 
+from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
 from ..sampling.boundary import BoundaryCurve
 from ..sampling.critical import CriticalPoints
 from ..sampling.discovery import Discovery
 from ..sampling.probes import Probes
 from .complex import component_topology
-from .._regions import describe_regions, regions
 from .singular import singular_points
 from .snapshot import Snapshot
 from .tests import TESTS, Violations
