@@ -1,0 +1,247 @@
+"""Issue 29's block-wise volume benchmark: ``mesh_volume_blocks`` beside one process.
+
+One command runs, in one process (so that the runs share the machine's load):
+
+1. **whole**: ``mesh_surface(VolumeSurface(volume))`` in this process;
+2. **blocks**: ``rdmesh.mesh_volume_blocks`` on a local cluster of 1 and of 2
+   worker processes (1 thread each): closed, the whole run's components and
+   Euler characteristics, the same mesh bit for bit for both worker counts,
+   the angles at the seams and elsewhere, each worker's peak memory, and the
+   distance between the welded mesh and the whole run's;
+3. **marching cubes in blocks** (scikit-image), as microscopy pipelines do:
+   the blocks' meshes concatenated (the seams stay open) and welded (vertices
+   equal to 1e-6 merged), with their open edges, topology and angles.
+
+The volume is generated: two linked tori and a ball (Euler characteristics
+0, 0 and 2), scaled to ``n`` samples a side so that every block plane cuts
+them; the size bound is in samples, so the mesh grows as ``n^2``. Prints a
+Markdown table and writes ``results/volume-blocks-<date>.json``::
+
+    python benchmarks/volume_blocks.py --n 129 --block 64
+    python benchmarks/volume_blocks.py --n 257 --block 128 --radius-bound 2.5
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import hashlib
+import json
+import logging
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(ROOT))
+
+log = logging.getLogger("volume_blocks")
+
+
+def volume(n: int) -> np.ndarray:
+    """Two linked tori and a ball in an ``n^3`` volume, positive inside.
+
+    Float32 samples, built slab by slab (no ``n^3`` float64 temporaries)."""
+    s = (n - 1) / 40.0
+    out = np.empty((n, n, n), np.float32)
+    y, z = np.mgrid[0:n, 0:n].astype(np.float64) / s
+    for i in range(n):
+        x = i / s
+        a = 3.0 - np.hypot(np.hypot(x - 16.3, y - 19.6) - 10.0, z - 20.4)
+        b = 3.0 - np.hypot(np.hypot(x - 26.3, z - 20.4) - 10.0, y - 19.6)
+        c = 5.0 - np.sqrt((x - 14.1) ** 2 + (y - 30.5) ** 2 + (z - 31.0) ** 2)
+        out[i] = s * np.maximum(np.maximum(a, b), c)
+    return out
+
+
+def digest(v: np.ndarray, f: np.ndarray) -> str:
+    h = hashlib.sha256(np.ascontiguousarray(v, np.float64).tobytes())
+    h.update(np.ascontiguousarray(f, np.int64).tobytes())
+    return h.hexdigest()[:16]
+
+
+def mesh_figures(v: np.ndarray, f: np.ndarray) -> dict[str, Any]:
+    """Size, open and non-manifold edges, topology, angles of a triangle mesh."""
+    from rdmesh._geometry import min_angles
+    from rdmesh.topology.complex import component_topology
+
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(e[:, 0].astype(np.int64) * len(v) + e[:, 1], return_counts=True)
+    chi, loops = component_topology(f, len(v))
+    ang = min_angles(v[f])
+    ok = np.isfinite(ang)
+    return {
+        "vertices": int(len(v)),
+        "faces": int(len(f)),
+        "open_edges": int((counts == 1).sum()),
+        "nonmanifold_edges": int((counts > 2).sum()),
+        "components": len(chi),
+        "euler": sorted(chi),
+        "boundary_loops": int(sum(loops)),
+        "min_angle": round(float(ang[ok].min()), 2) if ok.any() else None,
+        "below_20": int((ang[ok] < 20.0).sum()),
+        "below_1": int((ang[ok] < 1.0).sum()),
+        "degenerate": int((~ok).sum()),
+    }
+
+
+def whole_run(vol: np.ndarray, opts: dict) -> tuple[Any, dict]:
+    import rdmesh
+
+    t = time.perf_counter()
+    m = rdmesh.mesh_surface(
+        rdmesh.VolumeSurface(vol, isovalue=0.0),
+        radius_bound=opts["radius_bound"],
+        distance_bound=opts["distance_bound"],
+    )
+    out = {"seconds": round(time.perf_counter() - t, 2), **mesh_figures(m.vertices, m.faces)}
+    out["complete"] = bool(m.complete)
+    out["peak_rss_mb_this_process"] = round(
+        resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1
+    )
+    return m, out
+
+
+def blocks_run(vol: np.ndarray, block: int, workers: int, opts: dict) -> tuple[Any, dict]:
+    import rdmesh
+
+    t = time.perf_counter()
+    m = rdmesh.mesh_volume_blocks(vol, block, workers=workers, isovalue=0.0, **opts)
+    seams = m.report["seams"]
+    out = {
+        "seconds": round(time.perf_counter() - t, 2),
+        **mesh_figures(m.vertices, m.faces),
+        "complete": bool(m.complete),
+        "stop_reason": m.stats.get("stop_reason"),
+        "blocks": m.report["blocks_layout"]["counts"],
+        "seam_curves": seams["curves"],
+        "seam_balls": seams["balls"],
+        "seam_check_held": seams["held"],
+        "repairs": seams["repairs"],
+        "min_angle_at_seams": _round(seams.get("min_angle_at_seams")),
+        "min_angle_elsewhere": _round(seams.get("min_angle_elsewhere")),
+        "peak_worker_mb": m.stats["peak_worker_mb"],
+        "phase_seconds": m.stats["phase_seconds"],
+        "digest": digest(m.vertices, m.faces),
+    }
+    return m, out
+
+
+def _round(x: float | None) -> float | None:
+    return None if x is None else round(float(x), 2)
+
+
+def marching_cubes_blocks(vol: np.ndarray, block: int) -> dict[str, Any]:
+    """Block-wise marching cubes: concatenated, and welded at 1e-6."""
+    from rdmesh.blocks.layout import Layout
+    from skimage.measure import marching_cubes
+
+    lay = Layout.of(vol.shape, block, (1, 1, 1), (0, 0, 0))
+    t = time.perf_counter()
+    vs, fs, n = [], [], 0
+    for blk in lay.blocks():
+        lo, hi = lay.index_box(blk)
+        sub = vol[lo[0] : hi[0] + 1, lo[1] : hi[1] + 1, lo[2] : hi[2] + 1]
+        if not (sub.min() < 0.0 < sub.max()):
+            continue
+        v, f, _, _ = marching_cubes(sub, 0.0)
+        vs.append(v.astype(np.float64) + lo)
+        fs.append(f + n)
+        n += len(v)
+    v, f = np.concatenate(vs), np.concatenate(fs).astype(np.int64)
+    seconds = time.perf_counter() - t
+    out = {"concatenated": {"seconds": round(seconds, 2), **mesh_figures(v, f)}}
+    t = time.perf_counter()
+    key = np.round(v * 1e6)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    wf = inverse.reshape(-1)[f]
+    wf = wf[(wf[:, 0] != wf[:, 1]) & (wf[:, 1] != wf[:, 2]) & (wf[:, 2] != wf[:, 0])]
+    out["welded"] = {
+        "seconds": round(seconds + time.perf_counter() - t, 2),
+        **mesh_figures(v[first], wf),
+    }
+    return out
+
+
+def distances(a: Any, b: Any) -> dict[str, float]:
+    """Largest distance from each mesh's vertices to the other's triangles."""
+    from benchmarks.metrics import surface_to_mesh
+
+    return {
+        "blocks_to_whole": round(float(surface_to_mesh(a.vertices, b.vertices, b.faces).max()), 4),
+        "whole_to_blocks": round(float(surface_to_mesh(b.vertices, a.vertices, a.faces).max()), 4),
+    }
+
+
+def table(res: dict) -> str:
+    rows = [("whole, 1 process", res["whole"])]
+    rows += [(f"blocks, {w} workers", res["blocks"][w]) for w in sorted(res["blocks"])]
+    rows += [(f"marching cubes, {k}", v) for k, v in res["marching_cubes"].items()]
+    head = "| run | s | vertices | open edges | components | Euler | min angle | < 20 deg |"
+    out = [head, "|---|---|---|---|---|---|---|---|"]
+    for name, r in rows:
+        out.append(
+            f"| {name} | {r['seconds']} | {r['vertices']:,} | {r['open_edges']} | "
+            f"{r['components']} | {r['euler']} | {r['min_angle']} | {r['below_20']} |"
+        )
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> dict:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--n", type=int, default=129, help="samples a side")
+    p.add_argument("--block", type=int, default=64, help="cells a block side")
+    p.add_argument("--radius-bound", type=float, default=2.0, help="in samples")
+    p.add_argument("--distance-bound", type=float, default=None, help="default radius / 10")
+    p.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    p.add_argument("--skip-whole", action="store_true", help="too large for one process")
+    p.add_argument("--out", type=Path, default=None)
+    a = p.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
+    logging.getLogger("distributed").setLevel(logging.WARNING)
+    opts = {
+        "radius_bound": a.radius_bound,
+        "distance_bound": a.distance_bound or a.radius_bound / 10,
+    }
+    vol = volume(a.n)
+    commit = subprocess.run(
+        ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
+    ).stdout.strip()
+    res: dict[str, Any] = {
+        "date": datetime.date.today().isoformat(),
+        "commit": commit,
+        "command": "python benchmarks/volume_blocks.py " + " ".join(argv or sys.argv[1:]),
+        "n": a.n,
+        "block": a.block,
+        **opts,
+        "blocks": {},
+    }
+    meshes = {}
+    for w in a.workers:
+        log.info("blocks, %d workers", w)
+        meshes[w], res["blocks"][w] = blocks_run(vol, a.block, w, opts)
+    res["identical_for_all_worker_counts"] = (
+        len({r["digest"] for r in res["blocks"].values()}) == 1
+    )
+    if not a.skip_whole:
+        log.info("whole")
+        whole, res["whole"] = whole_run(vol, opts)
+        res["distance"] = distances(meshes[a.workers[0]], whole)
+    log.info("marching cubes")
+    res["marching_cubes"] = marching_cubes_blocks(vol, a.block)
+    if "whole" in res:
+        print(table(res))
+    print(json.dumps({k: v for k, v in res.items() if k != "marching_cubes"}, indent=1))
+    out = a.out or HERE / "results" / f"volume-blocks-{res['date']}-n{a.n}-b{a.block}.json"
+    out.write_text(json.dumps(res, indent=1) + "\n", encoding="utf-8")
+    return res
+
+
+if __name__ == "__main__":
+    main()
