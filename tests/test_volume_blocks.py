@@ -326,3 +326,20 @@ def test_faces_around_a_block_edge_end_their_curves_at_the_same_corners():
     assert inner.any()
     # Four faces meet at an inner block edge: each corner ends four curves.
     assert (counts[inner] == 4).all()
+
+
+def test_a_lazy_volume_is_read_by_the_tasks_window_by_window():
+    from rdmesh.blocks.volume_blocks import _Source
+
+    lazy = da.from_array(torus_and_ball(), chunks=(13, 41, 20))
+    src = _Source(lazy, "cubic")
+    piece = src.piece(np.array([20, 0, 0]), np.array([40, 20, 20]), 3)
+    # The task gets a graph that reads its window, not the samples: nothing is
+    # computed in the caller, and the window is the block and its halo only.
+    assert hasattr(piece.data, "dask") and not isinstance(piece.data, np.ndarray)
+    assert piece.data.shape == (37, 37, 37)  # samples 4 to 40, 0 to 36, 0 to 36
+    assert piece.pads == [(0, 16), (16, 0), (16, 0)]  # mirrored past the volume's ends
+    raw = piece.read()
+    assert raw.shape == (53, 53, 53)
+    assert np.array_equal(raw[:37, 16:, 16:], torus_and_ball()[4:41, 0:37, 0:37])
+    assert np.array_equal(raw[37:, 16:, 16:], torus_and_ball()[39:23:-1, 0:37, 0:37])
