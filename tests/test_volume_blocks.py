@@ -88,6 +88,10 @@ def test_welded_mesh_is_closed_with_the_whole_volume_topology(blocks_mesh):
         assert _distance(a.vertices, b) <= bound
         assert _distance(a.vertices[a.faces].mean(axis=1), b) <= 2.0 * bound
     assert m.report["components"] == 2 and m.report["closed_manifold"]
+    # What mesh_surface reports, for the whole.
+    assert set(whole.report) <= set(m.report)
+    assert m.report["complete"] and m.report["seeding"]["blocks"] == {"sampled": 8}
+    assert m.report["probes"]["count"] > 0
     assert m.report["blocks_layout"]["counts"] == [2, 2, 2]
     seams = m.report["seams"]
     assert seams["held"] and seams["open_edges"] == 0 and seams["nonmanifold_edges"] == 0
@@ -143,6 +147,14 @@ def test_dask_arrays_and_array_likes_give_the_same_mesh(client, blocks_mesh):
     a = rdmesh.mesh_volume_blocks(lazy, 20, client=client, **OPTIONS)
     b = rdmesh.mesh_volume_blocks(_ArrayLike(torus_and_ball()), 20, client=client, **OPTIONS)
     assert digest(a) == digest(b) == digest(blocks_mesh)
+
+
+def test_a_volume_in_one_block_has_no_seams(client):
+    ball = 6.0 - np.sqrt(((GRID[:, :21, :21, :21] - 10.2) ** 2).sum(0))
+    m = rdmesh.mesh_volume_blocks(ball, 256, client=client, **OPTIONS)
+    assert m.report["blocks_layout"]["counts"] == [1, 1, 1]
+    assert m.complete and m.is_closed_manifold() and m.topology()["euler"] == [2]
+    assert m.report["seams"]["curves"] == 0 and m.stats["duplicates_merged"] == 0
 
 
 def test_clipped_border_has_its_boundary_on_the_box_only(client):

@@ -63,6 +63,7 @@ def whole_report(
         )
     clipped = vol["border"] == "clipped"
     return {
+        **summed(results),
         "method": "boissonnat-oudot",
         "blocks_layout": {
             "counts": list(layout.counts),
@@ -87,4 +88,31 @@ def whole_report(
             + ("it held." if seams.get("held") else "it FAILED (see seams).")
         ),
         "min_angle": float(np.min(mesh.angles)) if len(mesh.faces) else None,
+    }
+
+
+def summed(results: list[BlockResult]) -> dict[str, Any]:
+    """``mesh_surface``'s per-run report entries over every block: the seeding
+    ("proven" only if every block's was), probes and singular points counted,
+    the unresolved and violation regions of every block, the first spacing floor."""
+    reps = [r.report for r in results if r.report]
+    levels = [(rep.get("seeding") or {}).get("level") for rep in reps]
+    floors = [rep["spacing_floor"] for rep in reps if rep.get("spacing_floor") is not None]
+    singular = [rep.get("singular_points") or {} for rep in reps]
+    return {
+        "seeding": {
+            "level": "proven" if levels and all(v == "proven" for v in levels) else "sampled",
+            "blocks": {str(v): levels.count(v) for v in sorted(set(map(str, levels)))},
+            "basis": "each block's grid scan (a surface clipped to its box): components "
+            "smaller than about two grid cells of a block can be missed",
+        },
+        "probes": {"count": int(sum((rep.get("probes") or {}).get("count", 0) for rep in reps))},
+        "singular_points": {
+            "count": int(sum(s.get("count", 0) for s in singular)),
+            "regions": [g for s in singular for g in s.get("regions", [])],
+        },
+        "spacing_floor": floors[0] if floors else None,
+        "critical_points": None,  # the topological-ball method's, which blocks do not use
+        "unresolved_regions": [g for rep in reps for g in rep.get("unresolved_regions") or []],
+        "violation_regions": [g for rep in reps for g in rep.get("violation_regions") or []],
     }

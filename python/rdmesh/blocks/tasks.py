@@ -29,6 +29,11 @@ log = logging.getLogger("rdmesh")
 
 #: Triangles next to a ball below this angle (degrees) are places to repair.
 REPAIR_ANGLE = 20.0
+#: Entries of a block's report sent back, to be summed over the blocks.
+REPORT_KEYS = (
+    "seeding", "probes", "singular_points", "spacing_floor", "unresolved_regions",
+    "violation_regions",
+)  # fmt: skip
 
 
 @dataclass
@@ -145,6 +150,8 @@ class BlockResult:
     sites : ((k, 3), (k,)): places to shrink the balls (failed check, and
         triangles at a ball below :data:`REPAIR_ANGLE`).
     stats : the run's statistics (seconds, rounds, evaluations, ...).
+    report : the run's report entries that add up over blocks
+        (:data:`REPORT_KEYS`).
     peak_mb : the worker process's peak memory after the run, in MiB.
     """
 
@@ -160,6 +167,7 @@ class BlockResult:
     failed: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     sites: tuple = field(default_factory=lambda: (np.zeros((0, 3)), np.zeros(0)))
     stats: dict = field(default_factory=dict)
+    report: dict = field(default_factory=dict)
     peak_mb: float = 0.0
 
 
@@ -205,6 +213,7 @@ def mesh_task(job: MeshJob) -> BlockResult:
     keep = ("seconds", "rounds", "evaluations", "samples", "vertices", "faces", "unresolved")
     res.stats = {k: mesh.stats[k] for k in keep if k in mesh.stats}
     res.stats["balls"] = len(job.balls)
+    res.report = {k: mesh.report.get(k) for k in REPORT_KEYS}
     res.stats["min_angle"] = mesh.min_angle if len(mesh.faces) else None
     res.peak_mb = peak_memory_mb()
     return res

@@ -526,6 +526,7 @@ def _finish(mesh, results, seams, run: _Blocks, t0: float, repairs: dict) -> Non
         reasons.append(f"{len(stopped)} blocks incomplete, e.g. {stopped[0].block}: "
                        f"{stopped[0].stop_reason}")  # fmt: skip
     mesh.complete = not reasons
+    mesh.report["complete"] = mesh.complete
     if reasons:
         mesh.stats["stop_reason"] = "; ".join(reasons)
         log.warning("mesh_volume_blocks: %s", mesh.stats["stop_reason"])
@@ -538,4 +539,6 @@ def _finish(mesh, results, seams, run: _Blocks, t0: float, repairs: dict) -> Non
         blocks_meshed=repairs["meshed"],
         peak_worker_mb=round(run.peak_mb, 1),
         halo=halo(run.degree),
+        method="boissonnat-oudot",
+        topology="manifold" if run.vol["border"] == "closed" else "manifold-with-boundary",
     )
