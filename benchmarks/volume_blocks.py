@@ -2,7 +2,8 @@
 
 One command runs, in one process (so that the runs share the machine's load):
 
-1. **whole**: ``mesh_surface(VolumeSurface(volume))`` in this process;
+1. **whole**: ``mesh_surface(VolumeSurface(volume))`` in a child process whose
+   address space is capped (``--whole-memory-gb``), with its peak memory;
 2. **blocks**: ``rdmesh.mesh_volume_blocks`` on a local cluster of 1 and of 2
    worker processes (1 thread each): closed, the whole run's components and
    Euler characteristics, the same mesh bit for bit for both worker counts,
@@ -91,20 +92,51 @@ def mesh_figures(v: np.ndarray, f: np.ndarray) -> dict[str, Any]:
     }
 
 
-def whole_run(vol: np.ndarray, opts: dict) -> tuple[Any, dict]:
+def whole_child(n: int, opts: dict, path: Path) -> None:
+    """The single-process run (in a child process): its mesh and figures to ``path``."""
     import rdmesh
 
+    vol = volume(n)
     t = time.perf_counter()
     m = rdmesh.mesh_surface(
         rdmesh.VolumeSurface(vol, isovalue=0.0),
         radius_bound=opts["radius_bound"],
         distance_bound=opts["distance_bound"],
     )
-    out = {"seconds": round(time.perf_counter() - t, 2), **mesh_figures(m.vertices, m.faces)}
-    out["complete"] = bool(m.complete)
-    out["peak_rss_mb_this_process"] = round(
-        resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1
-    )
+    seconds = time.perf_counter() - t
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    np.savez(path, vertices=m.vertices, faces=m.faces, seconds=seconds, complete=m.complete,
+             peak_mb=peak)  # fmt: skip
+
+
+def whole_run(n: int, opts: dict, memory_gb: float) -> tuple[Any, dict]:
+    """``mesh_surface`` on the whole volume in a child process capped at
+    ``memory_gb`` of address space; the mesh (or None) and its figures."""
+    import tempfile
+
+    import rdmesh
+
+    path = Path(tempfile.mkdtemp()) / "whole.npz"
+    cap = int(memory_gb * 2**30)
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+
+    args = [sys.executable, __file__, "--whole-child", str(path), "--n", str(n)]
+    args += ["--radius-bound", str(opts["radius_bound"])]
+    args += ["--distance-bound", str(opts["distance_bound"])]
+    t = time.perf_counter()
+    done = subprocess.run(args, preexec_fn=limit, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    if done.returncode != 0 or not path.exists():
+        tail = (done.stderr or "").strip().splitlines()[-1:] or ["no output"]
+        return None, {"failed": f"exit {done.returncode}: {tail[0]}", "seconds": round(wall, 2),
+                      "memory_cap_gb": memory_gb}  # fmt: skip
+    z = np.load(path)
+    m = rdmesh.SurfaceMesh(z["vertices"], z["faces"], np.zeros((len(z["faces"]), 3)))
+    out = {"seconds": round(float(z["seconds"]), 2), **mesh_figures(m.vertices, m.faces)}
+    out["complete"] = bool(z["complete"])
+    out["peak_rss_mb"] = round(float(z["peak_mb"]), 1)
     return m, out
 
 
@@ -180,7 +212,8 @@ def distances(a: Any, b: Any) -> dict[str, float]:
 
 
 def table(res: dict) -> str:
-    rows = [("whole, 1 process", res["whole"])]
+    whole = res.get("whole", {})
+    rows = [("whole, 1 process", whole)] if "vertices" in whole else []
     rows += [(f"blocks, {w} workers", res["blocks"][w]) for w in sorted(res["blocks"])]
     rows += [(f"marching cubes, {k}", v) for k, v in res["marching_cubes"].items()]
     head = "| run | s | vertices | open edges | components | Euler | min angle | < 20 deg |"
@@ -201,6 +234,8 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--distance-bound", type=float, default=None, help="default radius / 10")
     p.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     p.add_argument("--skip-whole", action="store_true", help="too large for one process")
+    p.add_argument("--whole-memory-gb", type=float, default=8.0)
+    p.add_argument("--whole-child", type=Path, help=argparse.SUPPRESS)
     p.add_argument("--out", type=Path, default=None)
     a = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
@@ -209,6 +244,9 @@ def main(argv: list[str] | None = None) -> dict:
         "radius_bound": a.radius_bound,
         "distance_bound": a.distance_bound or a.radius_bound / 10,
     }
+    if a.whole_child:
+        whole_child(a.n, opts, a.whole_child)
+        return {}
     vol = volume(a.n)
     commit = subprocess.run(
         ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
@@ -222,24 +260,30 @@ def main(argv: list[str] | None = None) -> dict:
         **opts,
         "blocks": {},
     }
+    out = a.out or HERE / "results" / f"volume-blocks-{res['date']}-n{a.n}-b{a.block}.json"
+
+    def save() -> None:  # after every stage: a long run that is stopped keeps what it measured
+        out.write_text(json.dumps(res, indent=1) + "\n", encoding="utf-8")
+
+    log.info("marching cubes")
+    res["marching_cubes"] = marching_cubes_blocks(vol, a.block)
+    save()
     meshes = {}
     for w in a.workers:
         log.info("blocks, %d workers", w)
         meshes[w], res["blocks"][w] = blocks_run(vol, a.block, w, opts)
-    res["identical_for_all_worker_counts"] = (
-        len({r["digest"] for r in res["blocks"].values()}) == 1
-    )
+        save()
+    digests = {r["digest"] for r in res["blocks"].values()}
+    res["identical_for_all_worker_counts"] = len(digests) == 1
+    del vol
     if not a.skip_whole:
         log.info("whole")
-        whole, res["whole"] = whole_run(vol, opts)
-        res["distance"] = distances(meshes[a.workers[0]], whole)
-    log.info("marching cubes")
-    res["marching_cubes"] = marching_cubes_blocks(vol, a.block)
-    if "whole" in res:
-        print(table(res))
+        whole, res["whole"] = whole_run(a.n, opts, a.whole_memory_gb)
+        if whole is not None:
+            res["distance"] = distances(meshes[a.workers[0]], whole)
+        save()
+    print(table(res))
     print(json.dumps({k: v for k, v in res.items() if k != "marching_cubes"}, indent=1))
-    out = a.out or HERE / "results" / f"volume-blocks-{res['date']}-n{a.n}-b{a.block}.json"
-    out.write_text(json.dumps(res, indent=1) + "\n", encoding="utf-8")
     return res
 
 
