@@ -149,6 +149,21 @@ def test_dask_arrays_and_array_likes_give_the_same_mesh(client, blocks_mesh):
     assert digest(a) == digest(b) == digest(blocks_mesh)
 
 
+def test_spacing_origin_and_inside_less(client):
+    spacing, origin = (0.5, 1.0, 0.75), (1.0, -2.0, 3.0)
+    m = rdmesh.mesh_volume_blocks(
+        -torus_and_ball(), 20, client=client, isovalue=0.0, inside="less", spacing=spacing,
+        origin=origin, radius_bound=1.5, distance_bound=0.15,
+    )  # fmt: skip
+    assert m.complete and m.is_closed_manifold(), m.stats.get("stop_reason")
+    assert sorted(m.topology()["euler"]) == [0, 2]
+    # The seams lie on the physical planes of sample 20.
+    planes = np.asarray(origin) + 20.0 * np.asarray(spacing)
+    on = m.vertices == planes
+    assert on.any(axis=0).all()
+    assert m.stats["duplicates_merged"] == int(np.sum(2 ** on[on.any(axis=1)].sum(axis=1) - 1))
+
+
 def test_a_volume_in_one_block_has_no_seams(client):
     ball = 6.0 - np.sqrt(((GRID[:, :21, :21, :21] - 10.2) ** 2).sum(0))
     m = rdmesh.mesh_volume_blocks(ball, 256, client=client, **OPTIONS)
