@@ -104,7 +104,9 @@ def whole_child(n: int, opts: dict, path: Path) -> None:
         distance_bound=opts["distance_bound"],
     )
     seconds = time.perf_counter() - t
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    from rdmesh.blocks.tasks import peak_memory_mb
+
+    peak = peak_memory_mb()  # this process's own peak (VmHWM), not the parent's at the fork
     np.savez(path, vertices=m.vertices, faces=m.faces, seconds=seconds, complete=m.complete,
              peak_mb=peak)  # fmt: skip
 
@@ -275,6 +277,7 @@ def main(argv: list[str] | None = None) -> dict:
         save()
     digests = {r["digest"] for r in res["blocks"].values()}
     res["identical_for_all_worker_counts"] = len(digests) == 1
+    save()
     del vol
     if not a.skip_whole:
         log.info("whole")

@@ -57,7 +57,21 @@ class Piece:
 
 
 def peak_memory_mb() -> float:
-    """This process's peak resident memory so far, in MiB."""
+    """This process's peak resident memory so far, in MiB.
+
+    On Linux, ``VmHWM`` of ``/proc/self/status``: the peak of this process's
+    own memory. ``getrusage``'s ``ru_maxrss`` is not used there: a worker
+    process forked from a large parent and then exec'd keeps the parent's
+    resident size at the fork as its maximum (the client's volume would count
+    as every worker's memory).
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return peak / 2**20 if sys.platform == "darwin" else peak / 1024
 
