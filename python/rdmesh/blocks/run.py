@@ -20,11 +20,18 @@ PER_THREAD = 2
 
 
 def run_all(
-    client: Any, fn: Callable, items: Sequence[Any], stage: str, names: Sequence[str]
+    client: Any,
+    fn: Callable,
+    items: Sequence[Any],
+    stage: str,
+    names: Sequence[str],
+    prepare: Callable[[Any], Any] | None = None,
 ) -> list[Any]:
     """``fn(item)`` for every item on the cluster; the results in item order.
 
-    An exception in a task is raised here with a note naming the item and the
+    ``prepare(item)``, if given, makes the argument just before it is
+    submitted (the windows of the volume are read then, not all at once). An
+    exception in a task is raised here with a note naming the item and the
     stage; a worker that died raises RuntimeError saying so.
     """
     import dask
@@ -42,9 +49,9 @@ def run_all(
             with dask.config.set({"distributed.admin.large-graph-warning-threshold": "4GiB"}):
                 while pending and len(running) < cap:
                     i = pending.pop()
-                    fut = client.submit(
-                        fn, items[i], key=f"rdmesh-{stage}-{token}-{i}", pure=False
-                    )
+                    arg = items[i] if prepare is None else prepare(items[i])
+                    fut = client.submit(fn, arg, key=f"rdmesh-{stage}-{token}-{i}", pure=False)
+                    del arg
                     running[fut] = i
             done, _ = wait(list(running), return_when="FIRST_COMPLETED")
             for fut in done:

@@ -100,7 +100,9 @@ class FaceJob:
     layout: Layout
     params: Params
     faces: list[Face]
-    pieces: list[Piece]
+    #: Per face: its window, read (a Piece) when the job is submitted; until
+    #: then ``(lo, hi, degree)``, where it is.
+    pieces: list[Any]
     h: float = 0.0
     #: Per face: the centres to project (k, 3), for a projection job.
     centres: list[np.ndarray] = field(default_factory=list)
@@ -143,7 +145,8 @@ class MeshJob:
     index: int
     layout: Layout
     params: Params
-    piece: Piece
+    #: The block's window, as for FaceJob.pieces.
+    piece: Any
     balls: ProtectingBalls
     options: dict
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -353,9 +354,21 @@ class _Blocks:
 
     def _run(self, fn, items, stage):
         t = time.perf_counter()
-        out = run_all(self.client, fn, items, stage, self.names)
+        out = run_all(self.client, fn, items, stage, self.names, prepare=self._load)
         self.seconds[stage] = self.seconds.get(stage, 0.0) + time.perf_counter() - t
         return out
+
+    def _load(self, item):
+        """A job with its windows read (sliced from a numpy volume, or lazy
+        slices of any other), just before it is submitted: the jobs hold only
+        where their windows are until then, so the windows in memory at once
+        are those of the tasks in flight."""
+        if isinstance(item, FaceJob):
+            return dataclasses.replace(item, pieces=[self.source.piece(*w) for w in item.pieces])
+        if isinstance(item, MeshJob):
+            return dataclasses.replace(item, piece=self.source.piece(*item.piece))
+        window, *rest = item
+        return (self.source.piece(*window), *rest)
 
     def parameters(self) -> Params:
         """The isovalue (checked against the data's range) and the value scale."""
@@ -365,7 +378,7 @@ class _Blocks:
             out = []
             for blk in self.blocks:
                 lo, hi = lay.index_box(blk)
-                out.append((self.source.piece(lo, hi, None), lo, with_iso, lay.spacing))
+                out.append(((lo, hi, None), lo, with_iso, lay.spacing))
             return out
 
         stats = self._run(_stats, jobs(iso), "statistics")
@@ -401,7 +414,7 @@ class _Blocks:
         jobs = []
         for blk in self.blocks:
             faces = faces_of(blk)
-            pieces = [self.source.piece(*_face_box(self.layout, f), self.degree) for f in faces]
+            pieces = [(*_face_box(self.layout, f), self.degree) for f in faces]
             jobs.append(FaceJob(blk, self.layout, self.params, faces, pieces, radius=self.radius))
         return jobs
 
@@ -452,7 +465,7 @@ class _Blocks:
                 return results, net, repairs  # type: ignore[return-value]
             jobs = [
                 MeshJob(self.blocks[i], i, lay, self.params,
-                        self.source.piece(*lay.index_box(self.blocks[i]), self.degree),
+                        (*lay.index_box(self.blocks[i]), self.degree),
                         shares[i], self.opts)
                 for i in todo
             ]  # fmt: skip
