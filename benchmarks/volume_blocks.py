@@ -98,17 +98,19 @@ def whole_child(n: int, opts: dict, path: Path) -> None:
 
     vol = volume(n)
     t = time.perf_counter()
+    cpu0 = _cpu_seconds()
     m = rdmesh.mesh_surface(
         rdmesh.VolumeSurface(vol, isovalue=0.0),
         radius_bound=opts["radius_bound"],
         distance_bound=opts["distance_bound"],
     )
     seconds = time.perf_counter() - t
+    cpu = _cpu_seconds() - cpu0
     from rdmesh.blocks.tasks import peak_memory_mb
 
     peak = peak_memory_mb()  # this process's own peak (VmHWM), not the parent's at the fork
     np.savez(path, vertices=m.vertices, faces=m.faces, seconds=seconds, complete=m.complete,
-             peak_mb=peak)  # fmt: skip
+             peak_mb=peak, cpu=cpu)  # fmt: skip
 
 
 def whole_run(n: int, opts: dict, memory_gb: float) -> tuple[Any, dict]:
@@ -139,17 +141,37 @@ def whole_run(n: int, opts: dict, memory_gb: float) -> tuple[Any, dict]:
     out = {"seconds": round(float(z["seconds"]), 2), **mesh_figures(m.vertices, m.faces)}
     out["complete"] = bool(z["complete"])
     out["peak_rss_mb"] = round(float(z["peak_mb"]), 1)
+    out["cpu_seconds"] = round(float(z["cpu"]), 2)
     return m, out
 
 
+def _cpu_seconds() -> float:
+    """This process's CPU time (user and system), in seconds."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
 def blocks_run(vol: np.ndarray, block: int, workers: int, opts: dict) -> tuple[Any, dict]:
+    """``mesh_volume_blocks`` on a local cluster of ``workers`` processes (as it
+    starts one), with the CPU time of its workers and of this process."""
     import rdmesh
+    from rdmesh.batch.runner import _cluster
 
     t = time.perf_counter()
-    m = rdmesh.mesh_volume_blocks(vol, block, workers=workers, isovalue=0.0, **opts)
+    with _cluster(None, workers, "auto") as client:
+        started = time.perf_counter()
+        cpu0 = _cpu_seconds()
+        before = client.run(_cpu_seconds)
+        m = rdmesh.mesh_volume_blocks(vol, block, client=client, isovalue=0.0, **opts)
+        workers_cpu = sum(client.run(_cpu_seconds).values()) - sum(before.values())
+        client_cpu = _cpu_seconds() - cpu0
+        meshing = time.perf_counter() - started
     seams = m.report["seams"]
     out = {
         "seconds": round(time.perf_counter() - t, 2),
+        "seconds_on_the_cluster": round(meshing, 2),
+        "cpu_seconds_workers": round(workers_cpu, 2),
+        "cpu_seconds_client": round(client_cpu, 2),
         **mesh_figures(m.vertices, m.faces),
         "complete": bool(m.complete),
         "stop_reason": m.stats.get("stop_reason"),
@@ -214,16 +236,23 @@ def distances(a: Any, b: Any) -> dict[str, float]:
 
 
 def table(res: dict) -> str:
+    """The runs as a Markdown table; CPU is the workers' and this process's for blocks."""
     whole = res.get("whole", {})
-    rows = [("whole, 1 process", whole)] if "vertices" in whole else []
-    rows += [(f"blocks, {w} workers", res["blocks"][w]) for w in sorted(res["blocks"])]
-    rows += [(f"marching cubes, {k}", v) for k, v in res["marching_cubes"].items()]
-    head = "| run | s | vertices | open edges | components | Euler | min angle | < 20 deg |"
-    out = [head, "|---|---|---|---|---|---|---|---|"]
-    for name, r in rows:
+    rows = [("whole, 1 process", whole, whole.get("cpu_seconds"))] if "vertices" in whole else []
+    rows += [
+        (f"blocks, {w} workers", r, round(r["cpu_seconds_workers"] + r["cpu_seconds_client"], 1))
+        for w, r in sorted(res["blocks"].items())
+    ]
+    rows += [(f"marching cubes, {k}", v, v["seconds"]) for k, v in res["marching_cubes"].items()]
+    head = (
+        "| run | s | CPU s | vertices | open edges | components | Euler | min angle | < 20 deg |"
+    )
+    out = [head, "|---|---|---|---|---|---|---|---|---|"]
+    for name, r, cpu in rows:
         out.append(
-            f"| {name} | {r['seconds']} | {r['vertices']:,} | {r['open_edges']} | "
-            f"{r['components']} | {r['euler']} | {r['min_angle']} | {r['below_20']} |"
+            f"| {name} | {r['seconds']} | {cpu} | {r['vertices']:,} | {r['open_edges']} | "
+            f"{r['components']} | {r['euler'] if r['components'] < 6 else '...'} | "
+            f"{r['min_angle']} | {r['below_20']} |"
         )
     return "\n".join(out)
 
