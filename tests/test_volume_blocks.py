@@ -285,6 +285,11 @@ def test_client_and_workers_together_are_refused(client):
         rdmesh.mesh_volume_blocks(torus_and_ball(), 20, client=client, workers=2)
 
 
+def test_an_address_instead_of_a_client_is_refused():
+    with pytest.raises(TypeError, match=r"Client\('tcp://host:8786'\)"):
+        rdmesh.mesh_volume_blocks(torus_and_ball(), 20, client="tcp://127.0.0.1:8786")
+
+
 @pytest.mark.parametrize(
     "volume, options, error, match",
     [

@@ -122,6 +122,8 @@ def mesh_volume_blocks(
 
     Raises
     ------
+    TypeError
+        A ``client`` that is not a ``distributed.Client`` (an address string).
     ValueError
         A volume that is not 3-D, holds non-real or non-finite values, or has
         too few samples; a bad ``block``, unknown options, ``features``,
@@ -165,6 +167,11 @@ def mesh_volume_blocks(
     block = integer("block", block, lo=MIN_BLOCK)
     if client is not None and workers is not None:
         raise ValueError("workers sets up the local cluster; with a client, scale it instead")
+    if client is not None and not (hasattr(client, "submit") and hasattr(client, "nthreads")):
+        raise TypeError(
+            "client must be a distributed.Client (for a scheduler address: "
+            f"Client('tcp://host:8786')), got {type(client).__name__}"
+        )
     if workers is not None:
         workers = integer("workers", workers, lo=1)
     layout = Layout.of(source.shape, block, vol["spacing"], vol["origin"])
