@@ -361,10 +361,10 @@ def test_faces_around_a_block_edge_end_their_curves_at_the_same_corners():
 
 
 def test_a_lazy_volume_is_read_by_the_tasks_window_by_window():
-    from rdmesh.blocks.volume_blocks import _Source
+    from rdmesh.blocks.source import Source
 
     lazy = da.from_array(torus_and_ball(), chunks=(13, 41, 20))
-    src = _Source(lazy, "cubic")
+    src = Source(lazy, "cubic")
     piece = src.piece(np.array([20, 0, 0]), np.array([40, 20, 20]), 3)
     # The task gets a graph that reads its window, not the samples: nothing is
     # computed in the caller, and the window is the block and its halo only.

@@ -6,7 +6,9 @@ the whole network of those curves once (:mod:`.network`), meshes each block
 on a worker with exactly the balls of its faces (:mod:`.tasks`), and welds
 the blocks' meshes by their equal vertices (:mod:`.weld`). Modules:
 :mod:`.layout` (where the blocks and faces are), :mod:`.field` (the
-interpolant every task evaluates the same way), :mod:`.run` (tasks on the
+interpolant every task evaluates the same way), :mod:`.options` (checked
+before anything runs), :mod:`.source` (the windows the tasks read),
+:mod:`.passes` (the passes over the blocks), :mod:`.run` (tasks on the
 cluster), :mod:`.report` and :mod:`.volume_blocks` (the entry point).
 """
 
