@@ -172,6 +172,22 @@ def test_a_volume_in_one_block_has_no_seams(client):
     assert m.report["seams"]["curves"] == 0 and m.stats["duplicates_merged"] == 0
 
 
+def test_zarr_and_hdf5_volumes_are_read_by_the_tasks(client, blocks_mesh, tmp_path):
+    zarr = pytest.importorskip("zarr")
+    h5py = pytest.importorskip("h5py")
+    vol = torus_and_ball()
+    z = zarr.open_array(tmp_path / "v.zarr", mode="w", shape=vol.shape, dtype=vol.dtype,
+                        chunks=(20, 20, 20))  # fmt: skip
+    z[:] = vol
+    with h5py.File(tmp_path / "v.h5", "w") as fh:
+        fh["volume"] = vol
+    a = rdmesh.mesh_volume_blocks(zarr.open_array(tmp_path / "v.zarr", mode="r"), 20,
+                                  client=client, **OPTIONS)  # fmt: skip
+    with h5py.File(tmp_path / "v.h5", "r") as fh:  # h5py's datasets do not pickle
+        b = rdmesh.mesh_volume_blocks(fh["volume"], 20, client=client, **OPTIONS)
+    assert digest(a) == digest(b) == digest(blocks_mesh)
+
+
 def test_clipped_border_has_its_boundary_on_the_box_only(client):
     surface = rdmesh.VolumeSurface(cylinder(), border="clipped", isovalue=0.0)
     whole = rdmesh.mesh_surface(surface, radius_bound=2.0, distance_bound=0.2)

@@ -11,6 +11,37 @@ from .layout import Layout, others
 from .tasks import Piece
 
 
+class HDF5Dataset:
+    """An HDF5 dataset that travels as its file's name and its own, and is
+    opened again where it is read (``h5py``'s datasets cannot be pickled).
+
+    Parameters
+    ----------
+    dataset : h5py.Dataset
+        An open dataset; its file must be at the same path on the workers.
+    """
+
+    def __init__(self, dataset: Any) -> None:
+        self.filename = str(dataset.file.filename)
+        self.name = str(dataset.name)
+        self.shape = tuple(int(n) for n in dataset.shape)
+        self.dtype = np.dtype(dataset.dtype)
+        self.ndim = len(self.shape)
+
+    def __getitem__(self, key: Any) -> np.ndarray:
+        import h5py
+
+        with h5py.File(self.filename, "r") as fh:
+            return fh[self.name][key]
+
+
+def _reopened(volume: Any) -> Any:
+    """An h5py dataset as an :class:`HDF5Dataset`; anything else as it is."""
+    if type(volume).__module__.startswith("h5py") and hasattr(volume, "file"):
+        return HDF5Dataset(volume)
+    return volume
+
+
 class Source:
     """The volume as tasks read it: numpy windows, or lazy dask slices."""
 
@@ -28,7 +59,7 @@ class Source:
                     volume = np.asarray(volume)
                     self.lazy = False
                 else:
-                    volume = da.from_array(volume)
+                    volume = da.from_array(_reopened(volume))
         self.data = volume
         self.shape = tuple(int(n) for n in volume.shape)
         dtype = np.dtype(volume.dtype)

@@ -47,7 +47,9 @@ def mesh_volume_blocks(
         ``dask.array.from_array`` takes (a zarr array, an HDF5 dataset).
         Real numbers (booleans count as 0 and 1). A numpy array is sliced
         here and each window sent with its task; anything else is read by
-        the tasks themselves, so the volume is never in one process.
+        the tasks themselves, so the volume is never in one process (an
+        ``h5py`` dataset is reopened on the workers from its file's name,
+        which must be the same path there).
     block : int, default 256
         Largest block size in cells along each axis (at least 8). The blocks
         along an axis are as equal as can be.
