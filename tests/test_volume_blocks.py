@@ -176,12 +176,12 @@ def test_zarr_and_hdf5_volumes_are_read_by_the_tasks(client, blocks_mesh, tmp_pa
     zarr = pytest.importorskip("zarr")
     h5py = pytest.importorskip("h5py")
     vol = torus_and_ball()
-    z = zarr.open_array(tmp_path / "v.zarr", mode="w", shape=vol.shape, dtype=vol.dtype,
+    z = zarr.open_array(str(tmp_path / "v.zarr"), mode="w", shape=vol.shape, dtype=vol.dtype,
                         chunks=(20, 20, 20))  # fmt: skip
     z[:] = vol
     with h5py.File(tmp_path / "v.h5", "w") as fh:
         fh["volume"] = vol
-    a = rdmesh.mesh_volume_blocks(zarr.open_array(tmp_path / "v.zarr", mode="r"), 20,
+    a = rdmesh.mesh_volume_blocks(zarr.open_array(str(tmp_path / "v.zarr"), mode="r"), 20,
                                   client=client, **OPTIONS)  # fmt: skip
     with h5py.File(tmp_path / "v.h5", "r") as fh:  # h5py's datasets do not pickle
         b = rdmesh.mesh_volume_blocks(fh["volume"], 20, client=client, **OPTIONS)
