@@ -22,6 +22,7 @@ from ._errors import (
 )
 from .api import mesh_surface
 from .batch import Job, JobResult, mesh_many
+from .blocks import mesh_volume_blocks
 from .core import CGAL_VERSION
 from .features import FeatureError, MeshFeatures
 from .io.result import SurfaceMesh
@@ -59,6 +60,7 @@ __all__ = [
     "VolumeSurface",
     "csg",
     "mesh_many",
+    "mesh_volume_blocks",
     "mesh_surface",
     "surfaces",
 ]

@@ -6,6 +6,7 @@ import logging
 from collections.abc import Callable
 
 from ._validate import box_in_sphere, choice, integer, positive
+from .features.given import ProtectingBalls
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria, Sizing
 from .refine.feature_curves import search_creases
@@ -136,8 +137,11 @@ def mesh_surface(
         vertex; next to the balls the angle, size and distance criteria are
         relaxed as in CGAL's Mesh_3 (``SurfaceMesh.features`` says what
         held). Boissonnat-Oudot only: "topological-ball" and ``certify``
-        refuse given feature curves. The creases of an expression's
-        ``min``, ``max`` and ``abs`` and of a :mod:`rdmesh.csg` tree are
+        refuse given feature curves. Balls placed beforehand
+        (``features=ProtectingBalls(...)``) are inserted as they are and
+        not repaired: a failed feature check makes the mesh incomplete.
+        The creases of an expression's ``min``, ``max`` and ``abs`` and of
+        a :mod:`rdmesh.csg` tree are
         found first (``features="auto"``, the default;
         :func:`rdmesh.creases.find_creases`, ``report["creases"]``) and
         protected the same way; a surface with creases found is meshed by
@@ -227,6 +231,7 @@ def mesh_surface(
             "proofs assume a closed surface strictly inside the bounding sphere"
         )
     given = isinstance(surface.features, list) and len(surface.features) > 0
+    given |= isinstance(surface.features, ProtectingBalls)
     if given and (method != "boissonnat-oudot" or certify):
         raise ValueError(
             "feature curves (features=) need method='boissonnat-oudot' without certify: the "

@@ -2,7 +2,16 @@
 balls that keep them in the mesh (../shared/design/creases.md)."""
 
 from .check import MeshFeatures
+from .given import ProtectingBalls
 from .graph import FeatureCurve, FeatureError, FeatureGraph
 from .protect import Balls, protect
 
-__all__ = ["Balls", "FeatureCurve", "FeatureError", "FeatureGraph", "MeshFeatures", "protect"]
+__all__ = [
+    "Balls",
+    "FeatureCurve",
+    "FeatureError",
+    "FeatureGraph",
+    "MeshFeatures",
+    "ProtectingBalls",
+    "protect",
+]

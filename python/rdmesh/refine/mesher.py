@@ -137,7 +137,8 @@ class Mesher:
         shrink: list[tuple[np.ndarray, np.ndarray]] = []
         while True:
             mesh = _attempt(self, t0, evals0, ivals0, shrink)
-            sites = None if mesh.features is None else repair_sites(mesh, REPAIR_ANGLE)
+            fixed = mesh.features is None or self.plan.balls_given  # balls placed beforehand
+            sites = None if fixed else repair_sites(mesh, REPAIR_ANGLE)
             if sites is None or not len(sites[0]) or self.repairs == MAX_REPAIRS:
                 return mesh
             if self.budget.exceeded(len(mesh.vertices), time.perf_counter() - t0):

@@ -21,9 +21,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .. import core
+from .._errors import EmptySurfaceError
 from .._tol import MIN_SPACING, TB_FLOOR, TB_SEED_SPACING, TOPOLOGY_FLOOR
 from ..creases.search import CreaseSearch
-from ..features import Balls, FeatureError, FeatureGraph, protect
+from ..features import Balls, FeatureError, FeatureGraph, ProtectingBalls, protect
 from ..sampling.boundary import SEED_BAND, BoundaryCurve, boundary_curve, box_grid
 from ..sampling.components import find_components
 from ..sampling.critical import CriticalPoints, critical_points
@@ -75,6 +76,8 @@ class Plan:
     balls: Balls | None = None
     #: Why curves rdmesh found could not be protected (then features is None).
     features_abandoned: str | None = None
+    #: The balls were placed beforehand (``features=ProtectingBalls``): not repaired.
+    balls_given: bool = False
 
 
 def boissonnat_oudot(
@@ -98,18 +101,31 @@ def boissonnat_oudot(
     an expression or CSG tree) get protecting balls
     (:mod:`rdmesh.features`), inserted before the seeds; with
     ``features="none"`` the boundary curve's samples are the first seeds
-    instead, and refinement points near it are moved onto it.
+    instead, and refinement points near it are moved onto it. Balls placed
+    beforehand (:class:`~rdmesh.features.ProtectingBalls`) replace all of
+    this: nothing is traced, and they may be the only seeds.
     """
     spacing = criteria.radius_bound if isinstance(criteria.radius_bound, float) else None
     clipped = topology == "manifold-with-boundary"
-    scan, found = _scan(surface, rng, resolution, spacing, certify, clipped)
+    given = surface.features if isinstance(surface.features, ProtectingBalls) else None
+    try:
+        scan, found = _scan(surface, rng, resolution, spacing, certify, clipped)
+    except EmptySurfaceError:
+        if given is None or not len(given):
+            raise
+        none = np.zeros((0, 3))
+        scan, found = GridScan(none, none, 2.0 * surface.radius / resolution), None
     boundary = None
-    if clipped:
+    if clipped and given is None:
         size = _boundary_spacing(surface, criteria)
         field = criteria.sizing if callable(criteria.radius_bound) else None
         boundary = boundary_curve(surface, size, criteria.distance_bound, resolution, field)
     graph, balls, abandoned = None, None, None
-    if surface.features != "none":
+    if given is not None and len(given):
+        given.check_on_surface(surface)
+        graph, balls = given.graph, given.balls
+        log.info("features: %d protecting balls placed beforehand", len(balls))
+    elif surface.features != "none" and given is None:
         volume_curve = _volume_box_curve(surface, criteria, resolution)
         try:
             graph = feature_graph(
@@ -126,11 +142,11 @@ def boissonnat_oudot(
             # features="none", and say so.
             log.warning("feature curves not protected, meshed without them: %s", exc)
             graph, abandoned = None, str(exc)
-        if balls is not None:
-            # A seed in a ball would be hidden, or a vertex next to a curve.
-            scan = GridScan(scan.seeds[~balls.inside(scan.seeds, SEED_CLEARANCE)],
-                            scan.crossings, scan.spacing)  # fmt: skip
-    if clipped and balls is None and len(boundary.points):
+    if balls is not None:
+        # A seed in a ball would be hidden, or a vertex next to a curve.
+        scan = GridScan(scan.seeds[~balls.inside(scan.seeds, SEED_CLEARANCE)],
+                        scan.crossings, scan.spacing)  # fmt: skip
+    if clipped and balls is None and boundary is not None and len(boundary.points):
         # Unprotected: seeds in the band along the clipping surface could be
         # boundary vertices, so the boundary's samples come first.
         size = _boundary_spacing(surface, criteria)
@@ -158,6 +174,7 @@ def boissonnat_oudot(
         features=graph,
         balls=balls,
         features_abandoned=abandoned,
+        balls_given=given is not None,
     )
 
 

@@ -62,6 +62,8 @@ class ImplicitSurface:
         Default None (or "auto"): those, and the creases and corners found
         where ``min``, ``max`` and ``abs`` switch in an expression or a
         :mod:`rdmesh.csg` shape; "none": nothing (creases are chamfered).
+        Balls placed beforehand (:class:`rdmesh.features.ProtectingBalls`)
+        replace all of these.
 
     Attributes
     ----------
@@ -293,13 +295,18 @@ def _evaluate_gradient(surface: ImplicitSurface, points: np.ndarray) -> np.ndarr
     return ((v[0] - v[1]) / (2 * h)).T
 
 
-def _features(features: Any, radius: float, f: Any, name: str) -> list[np.ndarray] | str:
-    """The checked ``features=``: "none", or the polylines (an empty list for
-    None or "auto": curves found, or none given); the curves are built once
+def _features(features: Any, radius: float, f: Any, name: str) -> Any:
+    """The checked ``features=``: "none", precomputed balls
+    (:class:`~rdmesh.features.ProtectingBalls`, checked when made), or the
+    polylines (an empty list for None or "auto": curves found, or none
+    given); the curves are built once
     here so that crossings are refused when the surface is made, and so are
     step functions where creases are to be found."""
+    from ..features.given import ProtectingBalls
     from ..features.graph import FeatureError, as_polylines, build_graph, given_curves
 
+    if isinstance(features, ProtectingBalls):
+        return features
     if features is None or (isinstance(features, str) and features == "auto"):
         from .expressions import Expression
         from .pieces import PiecewiseFunction
