@@ -48,9 +48,8 @@ class ImplicitSurface:
         inside the box, with a boundary on its faces, with
         ``topology="manifold-with-boundary"`` (the default for such a
         surface; other topologies, ``method="topological-ball"`` and
-        ``certify=True`` raise ValueError). Default None: no box, the
-        bounding ball only.
-    features : list of (m, 3) array_like, "auto" or "none", optional
+        ``certify=True`` raise ValueError). Default None: no box, only the ball.
+    features : list of (m, 3) array_like, "auto", "none" or ProtectingBalls, optional
         Feature curves to keep in the mesh (creases, sharp edges), each a
         polyline of points on the surface in order along the curve (a last
         point repeating the first closes it). Curves may meet only at their
@@ -61,9 +60,8 @@ class ImplicitSurface:
         a closed volume's box, a mesh's sharp edges) are protected as well.
         Default None (or "auto"): those, and the creases and corners found
         where ``min``, ``max`` and ``abs`` switch in an expression or a
-        :mod:`rdmesh.csg` shape; "none": nothing (creases are chamfered).
-        Balls placed beforehand (:class:`rdmesh.features.ProtectingBalls`)
-        replace all of these.
+        :mod:`rdmesh.csg` shape; "none": nothing (creases are chamfered); a
+        :class:`rdmesh.features.ProtectingBalls`: those balls alone.
 
     Attributes
     ----------
