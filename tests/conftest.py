@@ -13,7 +13,14 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 import rdmesh
+from hypothesis import settings
 from rdmesh.surfaces import SURFACES
+
+# CI runs the property-based tests on a fixed sequence of examples, so that a
+# run is repeatable; elsewhere hypothesis draws new ones each time.
+settings.register_profile("ci", derandomize=True, print_blob=True)
+if os.environ.get("CI"):
+    settings.load_profile("ci")
 
 # Debug mode: every round of every run below 50k samples checks the core's
 # bookkeeping and that each surface Delaunay ball is empty (subprocesses inherit it).
