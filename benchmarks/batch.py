@@ -482,9 +482,9 @@ def main(argv: list[str] | None = None) -> int:
     work = Path(args.work)
     shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True)
-    commit = subprocess.run(
-        ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
-    ).stdout.strip()
+    from record import git_commit
+
+    commit = git_commit()
     record: dict[str, Any] = {
         "date": datetime.date.today().isoformat(),
         "commit": commit,

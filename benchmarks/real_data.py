@@ -36,7 +36,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -375,9 +374,9 @@ def main(argv=None) -> int:
         rows += remesh_rows(sizes, args.cases)
     if args.only != "remesh":
         rows += volume_rows(args.quick, args.cases)
-    commit = subprocess.run(
-        ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=HERE
-    ).stdout.strip()
+    from record import git_commit
+
+    commit = git_commit()
     print(f"real data, {time.strftime('%Y-%m-%d')}, commit {commit}\n")
     print(table(rows))
     if args.out:

@@ -90,6 +90,18 @@ def machine_info() -> dict[str, Any]:
     return info
 
 
+def git_commit() -> str:
+    """The short hash of this checkout's HEAD ("" outside a git checkout)."""
+    try:
+        rev = subprocess.run(
+            ["git", "-C", str(HERE), "rev-parse", "--short", "HEAD"],
+            capture_output=True, text=True, timeout=10, check=False,
+        )  # fmt: skip
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return rev.stdout.strip()
+
+
 def package_versions() -> dict[str, Any]:
     from importlib import metadata
 

@@ -279,9 +279,9 @@ def main(argv: list[str] | None = None) -> dict:
         whole_child(a.n, opts, a.whole_child)
         return {}
     vol = volume(a.n)
-    commit = subprocess.run(
-        ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
-    ).stdout.strip()
+    from record import git_commit
+
+    commit = git_commit()
     res: dict[str, Any] = {
         "date": datetime.date.today().isoformat(),
         "commit": commit,

@@ -8,7 +8,6 @@ the hard timeout waits for the restart (a few seconds) and is marked slow.
 from __future__ import annotations
 
 import hashlib
-import logging
 import multiprocessing
 import os
 import time
@@ -21,21 +20,15 @@ from rdmesh.batch import transport
 from rdmesh.surfaces import SURFACES
 
 distributed = pytest.importorskip("distributed")
+from dask_cluster import local_cluster  # noqa: E402
+
 dask = pytest.importorskip("dask")
 
 
 @pytest.fixture(scope="module")
 def client():
     """A LocalCluster of 2 worker processes, 1 thread each, as mesh_many starts one."""
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-        cluster = distributed.LocalCluster(
-            n_workers=2,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            scheduler_kwargs={"dashboard": False},
-            silence_logs=logging.CRITICAL,
-        )
+    cluster = local_cluster(allowed_failures=0)
     with cluster, distributed.Client(cluster) as c:
         yield c
 

@@ -9,7 +9,6 @@ those of ``rdmesh mesh`` and ``rdmesh remesh``.
 from __future__ import annotations
 
 import json
-import logging
 import os
 import subprocess
 import sys
@@ -22,21 +21,15 @@ from rdmesh.batch.jobfile import KEYS, LineError, parse_line, parse_lines, read_
 from rdmesh.batch.manifest import MANIFEST, FolderBusy, Manifest
 
 distributed = pytest.importorskip("distributed")
+from dask_cluster import local_cluster  # noqa: E402
+
 dask = pytest.importorskip("dask")
 
 
 @pytest.fixture(scope="module")
 def scheduler():
     """The address of a LocalCluster of 2 worker processes, 1 thread each."""
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-        cluster = distributed.LocalCluster(
-            n_workers=2,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            scheduler_kwargs={"dashboard": False},
-            silence_logs=logging.CRITICAL,
-        )
+    cluster = local_cluster(allowed_failures=0)
     with cluster:
         yield cluster.scheduler_address
 

@@ -7,7 +7,6 @@ cross the block faces, and their topology is known beforehand.
 from __future__ import annotations
 
 import hashlib
-import logging
 
 import numpy as np
 import pytest
@@ -17,6 +16,8 @@ from rdmesh.blocks.layout import Layout, others
 from rdmesh.blocks.trace import trace_face
 
 distributed = pytest.importorskip("distributed")
+from dask_cluster import local_cluster  # noqa: E402
+
 dask = pytest.importorskip("dask")
 da = pytest.importorskip("dask.array")
 
@@ -51,14 +52,7 @@ OPTIONS = {"isovalue": 0.0, "radius_bound": 2.0, "distance_bound": 0.2}
 @pytest.fixture(scope="module")
 def client():
     """A LocalCluster of 2 worker processes, 1 thread each."""
-    cluster = distributed.LocalCluster(
-        n_workers=2,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",
-        scheduler_kwargs={"dashboard": False},
-        silence_logs=logging.CRITICAL,
-    )
+    cluster = local_cluster()
     with cluster, distributed.Client(cluster) as c:
         yield c
 
