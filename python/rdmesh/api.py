@@ -9,7 +9,7 @@ from ._validate import box_in_sphere, choice, integer, positive
 from .features.given import ProtectingBalls
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria, Sizing
-from .refine.feature_curves import search_creases
+from .refine.feature_curves import has_given_curves, search_creases
 from .refine.mesher import Budget, Mesher
 from .refine.methods import METHODS, TOPOLOGIES
 from .surfaces.expressions import Expression
@@ -230,7 +230,7 @@ def mesh_surface(
             "certify=True is not available with topology='manifold-with-boundary': the "
             "proofs assume a closed surface strictly inside the bounding sphere"
         )
-    given = isinstance(surface.features, list) and len(surface.features) > 0
+    given = has_given_curves(surface)
     given |= isinstance(surface.features, ProtectingBalls)
     if given and (method != "boissonnat-oudot" or certify):
         raise ValueError(

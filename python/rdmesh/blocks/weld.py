@@ -17,6 +17,7 @@ import numpy as np
 from .._geometry import min_angles
 from ..features.check import MeshFeatures, check_features
 from ..io.result import SurfaceMesh
+from ..topology.complex import distinct_edges
 from .layout import Layout
 from .network import Network
 from .tasks import BlockResult
@@ -64,14 +65,6 @@ def find_rows(table: np.ndarray, rows: np.ndarray) -> np.ndarray:
     return np.where(t[i] == r, i, -1).astype(np.int64)
 
 
-def edge_counts(faces: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Every edge ``(E, 2)`` (sorted ends), its number of triangles, and its key."""
-    e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
-    key = e[:, 0].astype(np.int64) * n + e[:, 1]
-    keys, first, counts = np.unique(key, return_index=True, return_counts=True)
-    return e[first], counts, keys
-
-
 def on_outer_box(layout: Layout, points: np.ndarray) -> np.ndarray:
     """Which points lie exactly on a face of the volume's box, ``(k, 6)``: one
     column per face (low x, high x, low y, ...)."""
@@ -98,7 +91,8 @@ def seam_check(mesh: SurfaceMesh, net: Network, layout: Layout) -> dict:
     }
     if not len(mesh.faces):
         return out
-    edges, counts, _ = edge_counts(mesh.faces, n)
+    keys, counts = distinct_edges(mesh.faces, n)
+    edges = np.c_[keys // n, keys % n]
     mid = 0.5 * (mesh.vertices[edges[:, 0]] + mesh.vertices[edges[:, 1]])
     # An edge with one triangle is a boundary edge where both ends lie on the
     # same face of the volume's box; anywhere else it is a hole.

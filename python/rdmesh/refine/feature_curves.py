@@ -26,6 +26,11 @@ from ..sampling.boundary import BoundaryCurve, project_onto_curve
 ON_SURFACE = 1e-6
 
 
+def has_given_curves(surface) -> bool:
+    """Whether the user gave ``surface`` feature polylines (``features=[...]``)."""
+    return isinstance(surface.features, list) and len(surface.features) > 0
+
+
 def check_on_surface(surface, curves: list[FeatureCurve]) -> None:
     """FeatureError naming the first given curve with a point off the surface."""
     given = [c for c in curves if c.source == "given"]
@@ -210,4 +215,10 @@ def search_creases(surface, topology: str, seed: int, resolution: int) -> Crease
     return find_creases(surface, seed=seed, resolution=resolution)
 
 
-__all__ = ["FeatureError", "check_on_surface", "feature_graph", "search_creases"]
+__all__ = [
+    "FeatureError",
+    "check_on_surface",
+    "feature_graph",
+    "has_given_curves",
+    "search_creases",
+]

@@ -36,7 +36,7 @@ from ..surfaces.oracle import ImplicitSurface
 from ..surfaces.volume import VolumeSurface
 from ..topology.tests import CELL_NORMAL_ANGLE, PROBE_TARGET, TESTS
 from .criteria import FacetCriteria, Sizing
-from .feature_curves import check_on_surface, feature_graph
+from .feature_curves import check_on_surface, feature_graph, has_given_curves
 from .stages import FacetStage, Stage, TestStage
 
 log = logging.getLogger("rdmesh")
@@ -135,7 +135,7 @@ def boissonnat_oudot(
             if not graph.empty:
                 balls = _protect(surface, criteria, graph, scan, edge_size, shrink)
         except FeatureError as exc:
-            if isinstance(surface.features, list) and len(surface.features):
+            if has_given_curves(surface):
                 raise
             # Curves rdmesh found itself (clip boundary, volume box, a mesh's
             # sharp edges, an expression's creases): mesh without them, as

@@ -168,7 +168,7 @@ def _components(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray, np
     return len(raw), rank[face_raw], rank[label]
 
 
-def _edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+def distinct_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
     """The distinct edges of a triangle set, by sorted key ``min * n + max``,
     and the faces of each edge."""
     F = len(faces)
@@ -199,7 +199,7 @@ def component_topology(faces: np.ndarray, n_vertices: int) -> tuple[list[int], l
     nf = np.bincount(face_label, minlength=count)
     del face_label
     nv = np.bincount(vertex_label[vertex_label >= 0], minlength=count)
-    edge_key, edge_count = _edges(faces, n_vertices)
+    edge_key, edge_count = distinct_edges(faces, n_vertices)
     ne = np.bincount(vertex_label[edge_key // n_vertices], minlength=count)
     chi = [int(x) for x in nv - ne + nf]
     # Boundary loops: components of the graph of edges in one face.
