@@ -259,6 +259,43 @@ def test_ctrl_c_during_refinement_is_not_a_budget_stop():
     assert not m.complete and len(m.faces) > 0 and m.stats["rounds"] == 2
 
 
+def test_ctrl_c_while_the_core_settles_is_held_to_the_end():
+    """A Ctrl-C during the wait for the core's worker must not land inside
+    concurrent.futures (it could leave a future's lock taken: a hang); it is
+    raised once the wait is over."""
+    import os
+    import signal
+
+    from rdmesh.refine.pipeline import _ctrl_c_deferred
+
+    reached = []
+    with pytest.raises(KeyboardInterrupt), _ctrl_c_deferred():
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(1000):  # the handler runs between bytecodes
+            pass
+        reached.append(True)
+    assert reached
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_ctrl_c_while_settling_after_ctrl_c_is_not_raised_twice():
+    import os
+    import signal
+
+    from rdmesh.refine.pipeline import _ctrl_c_deferred
+
+    with pytest.raises(KeyboardInterrupt) as info:
+        try:
+            raise KeyboardInterrupt("first")
+        except KeyboardInterrupt:
+            with _ctrl_c_deferred():
+                os.kill(os.getpid(), signal.SIGINT)
+                for _ in range(1000):
+                    pass
+            raise
+    assert str(info.value) == "first"
+
+
 def test_taking_candidates_keeps_what_is_not_per_point():
     from dataclasses import fields
 

@@ -17,7 +17,11 @@ many threads, started with the pipeline and stopped by :meth:`close`.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor, wait
+import signal
+import sys
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -112,17 +116,12 @@ class FacetPipeline:
 
         The wait is for a no-op job queued last: the worker runs jobs in
         order, so when it has run, every earlier job has ended (the round is
-        then restarted, so what they did is redone).
+        then restarted, so what they did is redone). Ctrl-C is held off during
+        the wait: a KeyboardInterrupt raised inside ``concurrent.futures``
+        could leave a future's lock taken and the worker blocked on it.
         """
-        last = None
-        while True:
-            try:
-                if last is None:
-                    last = self._worker.submit(_nothing)
-                wait([last])
-                break
-            except KeyboardInterrupt:
-                continue  # the exception already propagating says "interrupted"
+        with _ctrl_c_deferred():
+            self._worker.submit(_nothing).result()
 
     def _update(self, vertices: np.ndarray) -> None:
         rdt, timed = self.rdt, self.timer
@@ -212,6 +211,24 @@ def _slice_flags(p: FacetPipeline, vertices, tri, seg, rho, end_f, samples: Dual
         | (ev.clean * core.KNOWN)
     )
     return flags, ev.centre, ev.failed
+
+
+@contextmanager
+def _ctrl_c_deferred():
+    """Hold SIGINT's Python handler off in the main thread; a Ctrl-C that came
+    meanwhile is raised at the end, unless a KeyboardInterrupt is already on
+    its way (it says the same)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # KeyboardInterrupt is only ever raised in the main thread
+        return
+    came = []
+    old = signal.signal(signal.SIGINT, lambda *_: came.append(True))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if came and not isinstance(sys.exc_info()[1], KeyboardInterrupt) and callable(old):
+        old(signal.SIGINT, None)
 
 
 def _nothing() -> None:
