@@ -160,6 +160,23 @@ def test_a_job_that_kills_its_worker_fails_and_the_others_go_on(client):
     assert "KilledWorker" in results[1].error
 
 
+def test_a_job_that_kills_its_worker_at_once_is_not_sent_again(client, tmp_path):
+    """Its start reached the scheduler before it ran (or it would be taken for a
+    job that waited behind the killer, and sent again to kill another worker)."""
+    runs = tmp_path / "runs"
+
+    def f(p):
+        with open(runs, "a") as out:
+            out.write("ran\n")
+        os._exit(1)
+
+    results = rdmesh.mesh_many(
+        [surface_of(f, "killer"), ball(), ball()], client=client, radius_bound=0.4
+    )
+    assert [r.status for r in results] == ["failed", "ok", "ok"], [r.error for r in results]
+    assert runs.read_text().splitlines() == ["ran"]
+
+
 def test_a_job_past_its_time_limit_is_stopped_with_its_partial_mesh(client):
     torus = SURFACES["torus"].make()
     results = rdmesh.mesh_many(
@@ -217,8 +234,8 @@ def test_a_job_over_the_memory_limit_fails_and_the_others_go_on():
     assert results[0].error.startswith("out of memory: its worker used")
 
 
-def test_a_job_whose_worker_died_before_it_started_is_sent_once_more():
-    from rdmesh.batch.runner import _Runner, _Running
+def test_a_job_whose_worker_died_before_it_started_is_sent_again_a_few_times():
+    from rdmesh.batch.runner import UNSTARTED_RETRIES, _Runner, _Running
     from rdmesh.batch.worker import Task
 
     class Died:
@@ -229,12 +246,14 @@ def test_a_job_whose_worker_died_before_it_started_is_sent_once_more():
 
     recorded = []
     runner = _Runner(None, [Task(0, "victim", None)], [None], recorded.append)
+    for attempt in range(UNSTARTED_RETRIES):
+        runner.pending.clear()
+        runner.running[Died()] = _Running(0, time.monotonic(), attempt=attempt)
+        runner._collect(next(iter(runner.running)))
+        assert list(runner.pending) == [0] and runner.attempts == [attempt + 1]
+        assert recorded == []
     runner.pending.clear()
-    runner.running[Died()] = _Running(0, time.monotonic())  # no start announced
-    runner._collect(next(iter(runner.running)))
-    assert list(runner.pending) == [0] and runner.attempts == [1] and recorded == []
-    runner.pending.clear()
-    runner.running[Died()] = _Running(0, time.monotonic(), attempt=1)
+    runner.running[Died()] = _Running(0, time.monotonic(), attempt=UNSTARTED_RETRIES)
     runner._collect(next(iter(runner.running)))
     assert [r.status for r in recorded] == ["failed"] and not runner.pending
     assert "worker process died" in recorded[0].error

@@ -29,7 +29,8 @@ from .worker import Task, run_task
 log = logging.getLogger("rdmesh")
 
 #: Worker deaths a task may cause before Dask gives up on it, on the local
-#: cluster that mesh_many starts: 0, since a job runs alone on its worker.
+#: cluster that mesh_many starts: 0, since only the job a worker runs can kill it
+#: (the one waiting behind it is sent again: UNSTARTED_RETRIES).
 ALLOWED_FAILURES = 0
 #: The default hard timeout of a job with a ``time_limit``: this many times it...
 HARD_TIMEOUT_FACTOR = 2.0
@@ -38,7 +39,10 @@ HARD_TIMEOUT_MARGIN = 30.0
 #: Times a job whose worker died before the job started (so it cannot have killed
 #: it: it waited there behind another job, as can happen while a worker restarts) is
 #: sent again. A job whose start was announced is never sent again.
-UNSTARTED_RETRIES = 1
+UNSTARTED_RETRIES = 3
+#: Jobs in flight per worker thread beyond the one it runs: a worker starts its
+#: next job at once, without waiting for the client to see the last one end.
+AHEAD = 1
 #: Seconds between checks of the hard timeouts and of the cluster's size.
 POLL = 0.25
 #: Give up on the jobs left when the cluster has had no worker for this long.
@@ -350,7 +354,7 @@ class _Runner:
     def _submit(self) -> None:
         import dask
 
-        free = self._capacity() - len(self.running)
+        free = self._capacity() * (1 + AHEAD) - len(self.running)
         while self.pending and free > 0:
             i = self.pending.popleft()
             task = self.tasks[i]

@@ -43,7 +43,13 @@ def announce(topic: str | None) -> str | None:
     except (ImportError, ValueError):
         return None
     if topic:
-        worker.log_event(topic, {"key": str(worker.get_current_task()), "worker": worker.address})
+        # Through the worker's client, which waits for the scheduler to have it:
+        # the worker's own log_event is sent a few ms later, and a job that kills
+        # its worker at once would then look as if it had never started.
+        from distributed import get_client
+
+        msg = {"key": str(worker.get_current_task()), "worker": worker.address}
+        get_client().log_event(topic, msg)
     return worker.address
 
 
