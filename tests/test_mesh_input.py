@@ -127,3 +127,66 @@ def test_sheet_gap_measures_the_thinnest_part():
     # Away from thin parts the gap is the cap, 2 x CLOSE_SHEETS x R, and nothing is said.
     ball = rdmesh.MeshSurface(sphere_mesh((0, 0, 0), 1.0))
     assert ball.input_report(np.array([[1.0, 0.0, 0.0]])) is None
+
+
+# -- dual segments proven empty by the signed distance's Lipschitz constant ------------
+
+
+def test_segments_proven_empty_do_not_meet_the_surface():
+    from rdmesh.refine.facets import no_crossing_proven
+
+    v, f = sphere_mesh((0.1, 0, 0), 0.8)
+    surface = rdmesh.MeshSurface((v, f))
+    assert surface.lipschitz == 1.0
+    rng = np.random.default_rng(3)
+    a = rng.uniform(-1.2, 1.2, (4000, 3))
+    b = a + rng.normal(0, 0.05, (4000, 3))  # f is clamped to 0.1 R
+    ends = np.stack([surface(a), surface(b)], axis=1)
+    proven = no_crossing_proven(surface, ends, np.linalg.norm(b - a, axis=1))
+    assert 0.2 < proven.mean() < 0.99  # a real share, not all
+    t = np.linspace(0, 1, 400)
+    along = surface((a[proven, None] + t[:, None] * (b - a)[proven, None]).reshape(-1, 3))
+    along = along.reshape(-1, len(t))
+    # No sign change, and no zero, on any proven segment.
+    assert np.all(np.abs(along) > 0) and np.all(along * along[:, :1] > 0)
+
+
+def test_winding_sign_proves_nothing():
+    from rdmesh.refine.facets import no_crossing_proven
+
+    class NoConstant:
+        lipschitz = None
+        radius = 1.0
+
+    ends = np.array([[1.0, 1.0], [-2.0, -3.0]])
+    assert not no_crossing_proven(NoConstant(), ends, np.array([0.1, 0.1])).any()
+
+
+def test_pruning_empty_segments_keeps_the_mesh_and_saves_evaluations(monkeypatch):
+    import rdmesh.refine.facets as facets
+
+    surface = rdmesh.MeshSurface(mc_mesh(torus_f, -1.6, 1.6, 40))
+    pruned = rdmesh.mesh_surface(surface, radius_bound=0.08)
+    monkeypatch.setattr(
+        facets, "no_crossing_proven", lambda surface, ends, length: np.zeros(len(ends), bool)
+    )
+    full = rdmesh.mesh_surface(surface, radius_bound=0.08)
+    assert np.array_equal(pruned.vertices, full.vertices)
+    assert np.array_equal(pruned.faces, full.faces)
+    assert pruned.stats["evaluations"] < 0.9 * full.stats["evaluations"]
+
+
+def test_selecting_dual_samples_keeps_each_segments_own():
+    from rdmesh.refine.facets import DualSamples
+
+    counts = np.array([2, 5, 3, 4])
+    offsets = np.r_[0, np.cumsum(counts)]
+    s = np.arange(offsets[-1], dtype=float)
+    interior = np.arange(3 * (offsets[-1] - 2 * len(counts)), dtype=float).reshape(-1, 3)
+    whole = DualSamples(offsets, s, interior)
+    keep = np.array([False, True, False, True])
+    got = whole.select(keep)
+    parts = [whole.take(slice(i, i + 1)) for i in np.flatnonzero(keep)]
+    assert np.array_equal(got.s, np.concatenate([p.s for p in parts]))
+    assert np.array_equal(got.interior, np.concatenate([p.interior for p in parts]))
+    assert np.array_equal(np.diff(got.offsets), counts[keep])

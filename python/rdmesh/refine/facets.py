@@ -16,6 +16,7 @@ import numpy as np
 from .. import core
 from .._errors import OracleError
 from .._tol import (
+    LIPSCHITZ_MARGIN,
     MAX_INTERVALS,
     MIN_INTERVALS,
     ROOT_ATOL,
@@ -77,6 +78,30 @@ class DualSamples:
             self.interior[off[a] - 2 * a : off[b] - 2 * b],
         )
 
+    def select(self, keep: np.ndarray) -> DualSamples:
+        """The samples of the segments where ``keep`` (k,) bool is True."""
+        counts = np.diff(self.offsets)
+        offsets = np.zeros(int(keep.sum()) + 1, np.int64)
+        np.cumsum(counts[keep], out=offsets[1:])
+        inner = np.maximum(counts - 2, 0)
+        return DualSamples(
+            offsets, self.s[np.repeat(keep, counts)], self.interior[np.repeat(keep, inner)]
+        )
+
+
+def no_crossing_proven(surface: ImplicitSurface, ends: np.ndarray, length: np.ndarray):
+    """(k,) bool: segments that cannot meet the surface, by ``f``'s Lipschitz
+    constant (a closed mesh's clamped signed distance: 1). The ends have the
+    same sign, and the balls of radius ``|f| / L`` about them, where ``f``
+    cannot vanish, cover the segment. All False when no constant is known."""
+    lip = getattr(surface, "lipschitz", None)
+    if lip is None:
+        return np.zeros(len(ends), bool)
+    a, b = ends[:, 0], ends[:, 1]
+    # The margin covers the rounding of f and of the length.
+    margin = LIPSCHITZ_MARGIN * surface.radius
+    return (a * b > 0) & (np.abs(a) + np.abs(b) > float(lip) * length + margin)
+
 
 def evaluate_facets(
     surface: ImplicitSurface,
@@ -122,18 +147,29 @@ def evaluate_facets(
     if samples is None:
         samples = DualSamples.of(seg, apex, rho)
     flat = SegmentSamples(samples.offsets, samples.s)
-    if end_values is None:
-        v = surface(np.concatenate([samples.interior, seg[:, 0], seg[:, 1]]))
-        interior_values = v[: len(samples.interior)]
-        end_values = v[len(samples.interior) :].reshape(2, k).T
-    else:
-        interior_values = surface(samples.interior)
     start = seg[:, 0]
     d = seg[:, 1] - start
     length = np.sqrt(np.einsum("ij,ij->i", d, d))
     u = d / np.where(length > 0, length, 1.0)[:, None]
     xatol = ROOT_ATOL * surface.radius
-    cr = line_crossings(surface, start, u, flat, xatol, interior_values, end_values)
+    if end_values is None:
+        v = surface(np.concatenate([samples.interior, seg[:, 0], seg[:, 1]]))
+        interior_values = v[: len(samples.interior)]
+        end_values = v[len(samples.interior) :].reshape(2, k).T
+        cr = line_crossings(surface, start, u, flat, xatol, interior_values, end_values)
+    else:
+        # Segments proven empty are not sampled inside: their crossings (none)
+        # are what the samples would have found.
+        keep = ~no_crossing_proven(surface, end_values, length)
+        searched = np.flatnonzero(keep)
+        if len(searched) < k:
+            samples = samples.select(keep)
+            flat = SegmentSamples(samples.offsets, samples.s)
+        cr = line_crossings(
+            surface, start[searched], u[searched], flat, xatol, surface(samples.interior),
+            end_values[searched],
+        )  # fmt: skip
+        cr.segment, cr.failed = searched[cr.segment], searched[cr.failed]
     out.clean = np.ones(k, bool)
     out.clean[cr.failed] = False
     if cr.segment.size == 0:

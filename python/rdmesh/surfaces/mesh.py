@@ -76,8 +76,9 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
         ``report["input"]`` naming where (:meth:`input_report`).
     lipschitz : float or None
         1 when ``f`` is the clamped signed distance (closed input), so the
-        seeding grid skips the nodes whose sign a coarser grid decides;
-        None with the winding-number sign.
+        seeding grid skips the nodes whose sign a coarser grid decides, and a
+        dual segment whose ends' values prove it cannot meet the surface is
+        not sampled inside; None with the winding-number sign.
     unit_gradient : bool
         The gradient is a unit vector wherever ``f`` is differentiable
         (closed input): the report's singular-point search is skipped.
