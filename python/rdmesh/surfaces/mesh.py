@@ -75,10 +75,9 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
         A run on such an input returns its mesh with ``complete=False`` and
         ``report["input"]`` naming where (:meth:`input_report`).
     lipschitz : float or None
-        1 when ``f`` is the clamped signed distance (closed input), so the
-        seeding grid skips the nodes whose sign a coarser grid decides, and a
-        dual segment whose ends' values prove it cannot meet the surface is
-        not sampled inside; None with the winding-number sign.
+        1 when ``f`` is the clamped signed distance (closed input): the seeding
+        grid and the dual segments skip samples it proves needless. None with
+        the winding-number sign.
     unit_gradient : bool
         The gradient is a unit vector wherever ``f`` is differentiable
         (closed input): the report's singular-point search is skipped.
