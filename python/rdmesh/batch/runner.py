@@ -30,7 +30,7 @@ log = logging.getLogger("rdmesh")
 
 #: Worker deaths a task may cause before Dask gives up on it, on the local
 #: cluster that mesh_many starts: 0, since only the job a worker runs can kill it
-#: (the one waiting behind it is sent again: UNSTARTED_RETRIES).
+#: (one waiting behind it, as after a restart or with AHEAD, is sent again).
 ALLOWED_FAILURES = 0
 #: The default hard timeout of a job with a ``time_limit``: this many times it...
 HARD_TIMEOUT_FACTOR = 2.0
@@ -40,9 +40,12 @@ HARD_TIMEOUT_MARGIN = 30.0
 #: it: it waited there behind another job, as can happen while a worker restarts) is
 #: sent again. A job whose start was announced is never sent again.
 UNSTARTED_RETRIES = 3
-#: Jobs in flight per worker thread beyond the one it runs: a worker starts its
-#: next job at once, without waiting for the client to see the last one end.
-AHEAD = 1
+#: Jobs in flight per worker thread beyond the one it runs. 1 lets a worker start
+#: its next job without the client's round trip (busy 97 % instead of 92 %), but
+#: on 2 cores it gained no wall time (benchmarks/batch_ahead.py: the workers' CPU
+#: grew as much), and a job queued behind a long one waits while another worker
+#: may be free. So 0.
+AHEAD = 0
 #: Seconds between checks of the hard timeouts and of the cluster's size.
 POLL = 0.25
 #: Give up on the jobs left when the cluster has had no worker for this long.
