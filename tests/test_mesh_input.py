@@ -190,3 +190,55 @@ def test_selecting_dual_samples_keeps_each_segments_own():
     assert np.array_equal(got.s, np.concatenate([p.s for p in parts]))
     assert np.array_equal(got.interior, np.concatenate([p.interior for p in parts]))
     assert np.array_equal(np.diff(got.offsets), counts[keep])
+
+
+# -- a run's cap: f clamped a few radius bounds from the surface -----------------------
+
+
+def test_a_runs_surface_is_clamped_closer_with_the_same_sign_and_zero_set():
+    from rdmesh.surfaces._mesh_queries import RUN_CAP, run_surface
+
+    surface = rdmesh.MeshSurface(sphere_mesh((0, 0, 0), 0.8))
+    run = run_surface(surface, 0.01)
+    assert run is not surface and run.cap == RUN_CAP * 0.01 < surface.cap
+    rng = np.random.default_rng(5)
+    p = rng.uniform(-1.1, 1.1, (5000, 3))
+    full, clamped = surface(p), run(p)
+    inside = np.abs(full) < run.cap
+    assert inside.any() and (~inside).any()
+    assert np.array_equal(clamped[inside], full[inside])
+    assert np.array_equal(np.sign(clamped), np.sign(full))
+    assert np.all(np.abs(clamped[~inside]) == run.cap)
+    assert surface.cap > run.cap  # the user's surface is left as it was
+    # A coarse run keeps the surface's own cap.
+    assert run_surface(surface, surface.cap) is surface
+
+
+def test_an_open_mesh_keeps_its_cap():
+    from rdmesh.surfaces._mesh_queries import run_surface
+
+    v, f = sphere_mesh((0, 0, 0), 0.8)
+    keep = v[f].mean(axis=1)[:, 2] < 0.5  # a bowl: its sign is the winding number's
+    surface = rdmesh.MeshSurface((v, f[keep]))
+    assert surface.sign_method == "winding"
+    assert run_surface(surface, 0.01) is surface
+
+
+def test_a_runs_evaluations_are_counted_on_the_users_surface():
+    surface = rdmesh.MeshSurface(mc_mesh(torus_f, -1.6, 1.6, 40))
+    m = rdmesh.mesh_surface(surface, radius_bound=0.03)
+    assert m.stats["evaluations"] > 0
+    assert surface.evaluations == m.stats["evaluations"]
+
+
+def test_the_run_cap_keeps_the_topology(monkeypatch):
+    from rdmesh.surfaces import _mesh_queries
+
+    surface = rdmesh.MeshSurface(mc_mesh(torus_f, -1.6, 1.6, 40))
+    capped = rdmesh.mesh_surface(surface, radius_bound=0.03)
+    monkeypatch.setattr(_mesh_queries, "RUN_CAP", 1e9)  # the surface's own cap
+    uncapped = rdmesh.mesh_surface(surface, radius_bound=0.03)
+    for m in (capped, uncapped):
+        assert m.is_closed_manifold() and m.complete
+    assert capped.topology() == uncapped.topology()
+    assert capped.min_angle >= 30.0 - 1e-6

@@ -57,7 +57,7 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     sign_method : {"side", "winding"}
         How inside is told from outside (see Notes).
     cap : float
-        ``f`` is clamped to ``[-cap, cap]`` (``0.1 R``; see Notes).
+        ``f`` is clamped to ``[-cap, cap]`` (``0.1 R``; a closed mesh's run, ``4 r`` if less).
     ambiguous_share : float
         Share of the area next to which the winding number is far from a
         whole number (0 for closed meshes).
@@ -101,9 +101,9 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     clamped to ``+-cap`` (``cap = 0.1 R``): points that a k-d tree of the
     vertices shows to be farther than ``cap`` skip the exact query, which is
     slowest there (near the medial axis many faces are almost equally far).
-    The zero set, the sign and ``f`` within ``cap`` of the mesh are
-    unchanged; :meth:`signed_distance` is not clamped. All queries may run
-    in several threads at once.
+    The zero set, the sign and ``f`` within ``cap`` are unchanged (a run at ``r``
+    clamps a closed mesh's ``f`` at ``4 r`` if less, on a copy);
+    :meth:`signed_distance` is not clamped. Queries may run in several threads.
 
     **Sign.** Accepted inputs:
 
