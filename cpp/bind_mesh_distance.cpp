@@ -73,6 +73,26 @@ void register_mesh_distance(py::module_& m) {
           "(k,) generalized winding numbers; clusters farther than beta radii "
           "are approximated by their dipole.")
       .def(
+          "segment_hits",
+          [](const MeshDistance& self, const InArray& segments) {
+            if (segments.ndim() != 3 || segments.shape(1) != 2 || segments.shape(2) != 3)
+              throw std::invalid_argument("segments must have shape (k, 2, 3)");
+            const std::vector<double> ab = copy_of<double>(segments);
+            std::vector<std::int64_t> segment, face;
+            std::vector<double> t;
+            {
+              py::gil_scoped_release release;
+              self.segment_hits(ab.data(), ab.size() / 6, segment, t, face);
+            }
+            const auto n = static_cast<py::ssize_t>(t.size());
+            return py::make_tuple(to_numpy(segment, {n}), to_numpy(t, {n}), to_numpy(face, {n}));
+          },
+          py::arg("segments"),
+          "The faces that (k, 2, 3) segments meet (CGAL's exact test): (m,) segment "
+          "indices, (m,) t in [0, 1] (the point a + t (b - a); NaN when the segment "
+          "lies almost in the face's plane or has zero length) and (m,) faces, in "
+          "segment order, then by t.")
+      .def(
           "self_intersections",
           [](const MeshDistance& self) {
             std::vector<std::int64_t> pairs = self.self_intersections();

@@ -429,6 +429,68 @@ void MeshDistance::winding_number(const double* p, std::size_t k, double* w, dou
   });
 }
 
+void MeshDistance::segment_hits(const double* ab, std::size_t k, std::vector<std::int64_t>& segment,
+                                std::vector<double>& t, std::vector<std::int64_t>& face) const {
+  const Impl& s = *impl_;
+  check_finite(ab, 2 * k);
+  struct Hit {
+    std::int64_t segment;
+    double t;
+    std::int64_t face;
+  };
+  const std::size_t blocks = (k + kBlock - 1) / kBlock;
+  std::vector<std::vector<Hit>> found(blocks);  // per block: the result does not depend on threads
+  for_each_on_cores(blocks, [] { return std::vector<SoupTree::Primitive_id>(); },
+                    [&](std::vector<SoupTree::Primitive_id>& prims, std::size_t blk) {
+    std::vector<Hit>& out = found[blk];
+    for (std::size_t i = blk * kBlock; i < std::min(k, (blk + 1) * kBlock); ++i) {
+      const double* a = &ab[6 * i];
+      const double* b = a + 3;
+      const Vec d = sub(b, a);
+      const auto seg = static_cast<std::int64_t>(i);
+      if (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0) {
+        out.push_back({seg, std::nan(""), -1});
+        continue;
+      }
+      prims.clear();
+      s.tree.all_intersected_primitives(K::Segment_3(Point(a[0], a[1], a[2]), Point(b[0], b[1], b[2])),
+                                        std::back_inserter(prims));
+      const std::size_t first = out.size();
+      for (const auto& id : prims) {
+        const auto f = s.soup_face[static_cast<std::size_t>(id - s.soup.cbegin())];
+        const double* v0 = s.vertex(s.tri[3 * f]);
+        const Vec n = cross(sub(s.vertex(s.tri[3 * f + 1]), v0), sub(s.vertex(s.tri[3 * f + 2]), v0));
+        const double den = dot(n, d);
+        // Nearly in the face's plane: the crossing's place is ill-conditioned.
+        double ti = std::nan("");
+        if (std::abs(den) > 1e-9 * norm(n) * norm(d))
+          ti = std::clamp(dot(n, sub(v0, a)) / den, 0.0, 1.0);
+        out.push_back({seg, ti, f});
+      }
+      std::sort(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
+                [](const Hit& x, const Hit& y) {
+                  const bool xn = std::isnan(x.t), yn = std::isnan(y.t);
+                  if (xn != yn) return xn;
+                  if (!xn && x.t != y.t) return x.t < y.t;
+                  return x.face < y.face;
+                });
+    }
+  });
+  std::size_t total = 0;
+  for (const auto& v : found) total += v.size();
+  segment.resize(total);
+  t.resize(total);
+  face.resize(total);
+  std::size_t j = 0;
+  for (const auto& v : found)
+    for (const Hit& h : v) {
+      segment[j] = h.segment;
+      t[j] = h.t;
+      face[j] = h.face;
+      ++j;
+    }
+}
+
 std::vector<std::int64_t> MeshDistance::self_intersections() const {
   std::vector<std::int64_t> out;
   for (const auto& [a, b] : impl_->crossing_faces) {

@@ -48,6 +48,14 @@ class MeshDistance {
   // clusters (Barill et al. 2018) beyond `beta` cluster radii.
   void winding_number(const double* p, std::size_t k, double* w, double beta = 2.5) const;
 
+  // Every face that k segments (a_i, b_i; k x 2 x 3 doubles) meet, found
+  // with CGAL's exact do_intersect, as (segment, t, face) with the point
+  // a + t (b - a), t in [0, 1], in segment order then by t then by face.  t is
+  // NaN where the segment lies in (or almost in) the face's plane, or has
+  // zero length.  Runs on the cores.
+  void segment_hits(const double* ab, std::size_t k, std::vector<std::int64_t>& segment,
+                    std::vector<double>& t, std::vector<std::int64_t>& face) const;
+
   // Pairs of intersecting faces (2 indices each, flattened) when the faces
   // form a closed manifold surface that intersects itself; empty otherwise.
   std::vector<std::int64_t> self_intersections() const;

@@ -129,116 +129,106 @@ def test_sheet_gap_measures_the_thinnest_part():
     assert ball.input_report(np.array([[1.0, 0.0, 0.0]])) is None
 
 
-# -- dual segments proven empty by the signed distance's Lipschitz constant ------------
+# -- exact crossings of dual segments with a closed mesh -------------------------------
 
 
-def test_segments_proven_empty_do_not_meet_the_surface():
-    from rdmesh.refine.facets import no_crossing_proven
+def test_segment_hits_lie_on_the_faces_they_name():
+    v, f = mc_mesh(torus_f, -1.6, 1.6, 32)
+    core = MeshDistance(v, f, side=True)
+    rng = np.random.default_rng(11)
+    a = v[rng.integers(0, len(v), 3000)] + rng.normal(0, 0.1, (3000, 3))
+    seg = np.stack([a, a + rng.normal(0, 0.3, (3000, 3))], axis=1)
+    hit, t, face = core.segment_hits(seg)
+    assert len(hit) > 1000 and np.all(np.diff(hit) >= 0)
+    assert np.all((t >= 0) & (t <= 1))
+    p = seg[hit, 0] + t[:, None] * (seg[hit, 1] - seg[hit, 0])
+    # Each point is on its face's plane and inside the face (barycentric >= 0).
+    a0, b0, c0 = (v[f[face, i]] for i in range(3))
+    n = np.cross(b0 - a0, c0 - a0)
+    area2 = np.einsum("ij,ij->i", n, n)
+    bary = np.stack(
+        [np.einsum("ij,ij->i", np.cross(y - p, z - p), n) / area2
+         for y, z in ((b0, c0), (c0, a0), (a0, b0))], axis=1,
+    )  # fmt: skip
+    assert np.all(bary > -1e-9) and np.allclose(bary.sum(axis=1), 1.0)
+    # And no face is missed: a segment has hits exactly when its ends differ in
+    # side or it has an even number >= 2 of them.
+    side = core.side(seg.reshape(-1, 3)).reshape(-1, 2)
+    count = np.bincount(hit, minlength=len(seg))
+    assert np.array_equal(count % 2 == 1, side[:, 0] != side[:, 1])
 
-    v, f = sphere_mesh((0.1, 0, 0), 0.8)
+
+def test_segment_hits_refuse_bad_segments():
+    v, f = sphere_mesh((0, 0, 0), 0.8, 16)
+    core = MeshDistance(v, f, side=True)
+    with pytest.raises(ValueError, match=r"\(k, 2, 3\)"):
+        core.segment_hits(np.zeros((4, 3)))
+    with pytest.raises(ValueError, match="not finite"):
+        core.segment_hits(np.array([[[0.0, 0, 0], [np.nan, 0, 0]]]))
+    hit, t, face = core.segment_hits(np.zeros((1, 2, 3)))  # zero length: one NaN
+    assert hit.tolist() == [0] and np.isnan(t).all()
+
+
+def test_exact_crossings_match_the_sampled_search():
+    from rdmesh.refine.facets import _sampled_crossings
+    from rdmesh.sampling.roots import Crossings
+
+    surface = rdmesh.MeshSurface(mc_mesh(torus_f, -1.6, 1.6, 32))
+    rng = np.random.default_rng(12)
+    v = surface.vertices
+    a = v[rng.integers(0, len(v), 2000)] + rng.normal(0, 0.1, (2000, 3))
+    seg = np.stack([a, a + rng.normal(0, 0.2, (2000, 3))], axis=1)
+    *found, cos, unsure = surface.exact_crossings(seg)
+    cr = Crossings(*found)
+    assert not unsure.any() and len(cr.segment) > 500
+    d = seg[:, 1] - seg[:, 0]
+    length = np.linalg.norm(d, axis=1)
+    u = d / length[:, None]
+    apex = seg[:, 0]
+    ref = _sampled_crossings(surface, seg, apex, 0.05 * np.ones(len(seg)), u)
+    # The samples may miss two crossings closer than their spacing; never
+    # one that the exact search does not have.
+    exact_n, ref_n = cr.count(len(seg)), ref.count(len(seg))
+    same = exact_n == ref_n
+    assert same.mean() > 0.97 and np.all(ref_n <= exact_n)
+    both = np.isin(cr.segment, np.flatnonzero(same))
+    assert np.allclose(cr.point[both], ref.point[np.isin(ref.segment, np.flatnonzero(same))],
+                       atol=1e-7)  # fmt: skip
+    assert np.array_equal(cr.rising[both], ref.rising[np.isin(ref.segment, np.flatnonzero(same))])
+    assert np.all((cos > 0) & (cos <= 1 + 1e-12))
+
+
+def test_degenerate_hits_are_left_to_sampling():
+    v, f = sphere_mesh((0, 0, 0), 0.8, 16)
     surface = rdmesh.MeshSurface((v, f))
-    assert surface.lipschitz == 1.0
-    rng = np.random.default_rng(3)
-    a = rng.uniform(-1.2, 1.2, (4000, 3))
-    b = a + rng.normal(0, 0.05, (4000, 3))  # f is clamped to 0.1 R
-    ends = np.stack([surface(a), surface(b)], axis=1)
-    proven = no_crossing_proven(surface, ends, np.linalg.norm(b - a, axis=1))
-    assert 0.2 < proven.mean() < 0.99  # a real share, not all
-    t = np.linspace(0, 1, 400)
-    along = surface((a[proven, None] + t[:, None] * (b - a)[proven, None]).reshape(-1, 3))
-    along = along.reshape(-1, len(t))
-    # No sign change, and no zero, on any proven segment.
-    assert np.all(np.abs(along) > 0) and np.all(along * along[:, :1] > 0)
+    w = surface.vertices
+    vert = w[0]
+    face = surface.faces[0]
+    mid = 0.5 * (w[face[0]] + w[face[1]])
+    centre = w[face].mean(axis=0)
+    seg = np.array([
+        [1.5 * vert, 0.5 * vert],  # through a vertex
+        [1.5 * mid, 0.5 * mid],  # through an edge
+        [1.5 * centre, 0.5 * centre],  # through a face's interior
+        # along an edge: in its faces' planes
+        [w[face[0]] - (w[face[1]] - w[face[0]]), w[face[1]]],
+    ])  # fmt: skip
+    segment, _, _, rising, _, unsure = surface.exact_crossings(seg)
+    assert unsure.tolist() == [True, True, False, True]
+    assert segment.tolist() == [2] and not rising[0]  # going in
 
 
-def test_winding_sign_proves_nothing():
-    from rdmesh.refine.facets import no_crossing_proven
-
-    class NoConstant:
-        lipschitz = None
-        radius = 1.0
-
-    ends = np.array([[1.0, 1.0], [-2.0, -3.0]])
-    assert not no_crossing_proven(NoConstant(), ends, np.array([0.1, 0.1])).any()
-
-
-def test_pruning_empty_segments_keeps_the_mesh_and_saves_evaluations(monkeypatch):
-    import rdmesh.refine.facets as facets
-
+def test_remeshing_uses_exact_crossings_and_keeps_the_topology(monkeypatch):
     surface = rdmesh.MeshSurface(mc_mesh(torus_f, -1.6, 1.6, 40))
-    pruned = rdmesh.mesh_surface(surface, radius_bound=0.08)
-    monkeypatch.setattr(
-        facets, "no_crossing_proven", lambda surface, ends, length: np.zeros(len(ends), bool)
-    )
-    full = rdmesh.mesh_surface(surface, radius_bound=0.08)
-    assert np.array_equal(pruned.vertices, full.vertices)
-    assert np.array_equal(pruned.faces, full.faces)
-    assert pruned.stats["evaluations"] < 0.9 * full.stats["evaluations"]
-
-
-def test_selecting_dual_samples_keeps_each_segments_own():
-    from rdmesh.refine.facets import DualSamples
-
-    counts = np.array([2, 5, 3, 4])
-    offsets = np.r_[0, np.cumsum(counts)]
-    s = np.arange(offsets[-1], dtype=float)
-    interior = np.arange(3 * (offsets[-1] - 2 * len(counts)), dtype=float).reshape(-1, 3)
-    whole = DualSamples(offsets, s, interior)
-    keep = np.array([False, True, False, True])
-    got = whole.select(keep)
-    parts = [whole.take(slice(i, i + 1)) for i in np.flatnonzero(keep)]
-    assert np.array_equal(got.s, np.concatenate([p.s for p in parts]))
-    assert np.array_equal(got.interior, np.concatenate([p.interior for p in parts]))
-    assert np.array_equal(np.diff(got.offsets), counts[keep])
-
-
-# -- a run's cap: f clamped a few radius bounds from the surface -----------------------
-
-
-def test_a_runs_surface_is_clamped_closer_with_the_same_sign_and_zero_set():
-    from rdmesh.surfaces._mesh_queries import RUN_CAP, run_surface
-
-    surface = rdmesh.MeshSurface(sphere_mesh((0, 0, 0), 0.8))
-    run = run_surface(surface, 0.01)
-    assert run is not surface and run.cap == RUN_CAP * 0.01 < surface.cap
-    rng = np.random.default_rng(5)
-    p = rng.uniform(-1.1, 1.1, (5000, 3))
-    full, clamped = surface(p), run(p)
-    inside = np.abs(full) < run.cap
-    assert inside.any() and (~inside).any()
-    assert np.array_equal(clamped[inside], full[inside])
-    assert np.array_equal(np.sign(clamped), np.sign(full))
-    assert np.all(np.abs(clamped[~inside]) == run.cap)
-    assert surface.cap > run.cap  # the user's surface is left as it was
-    # A coarse run keeps the surface's own cap.
-    assert run_surface(surface, surface.cap) is surface
-
-
-def test_an_open_mesh_keeps_its_cap():
-    from rdmesh.surfaces._mesh_queries import run_surface
-
-    v, f = sphere_mesh((0, 0, 0), 0.8)
-    keep = v[f].mean(axis=1)[:, 2] < 0.5  # a bowl: its sign is the winding number's
-    surface = rdmesh.MeshSurface((v, f[keep]))
-    assert surface.sign_method == "winding"
-    assert run_surface(surface, 0.01) is surface
-
-
-def test_a_runs_evaluations_are_counted_on_the_users_surface():
-    surface = rdmesh.MeshSurface(mc_mesh(torus_f, -1.6, 1.6, 40))
-    m = rdmesh.mesh_surface(surface, radius_bound=0.03)
-    assert m.stats["evaluations"] > 0
-    assert surface.evaluations == m.stats["evaluations"]
-
-
-def test_the_run_cap_keeps_the_topology(monkeypatch):
-    from rdmesh.surfaces import _mesh_queries
-
-    surface = rdmesh.MeshSurface(mc_mesh(torus_f, -1.6, 1.6, 40))
-    capped = rdmesh.mesh_surface(surface, radius_bound=0.03)
-    monkeypatch.setattr(_mesh_queries, "RUN_CAP", 1e9)  # the surface's own cap
-    uncapped = rdmesh.mesh_surface(surface, radius_bound=0.03)
-    for m in (capped, uncapped):
+    exact = rdmesh.mesh_surface(surface, radius_bound=0.05)
+    assert surface.segment_queries == exact.stats["segment_queries"] > 0
+    assert surface.evaluations == exact.stats["evaluations"] > 0
+    monkeypatch.setattr(surface, "exact_crossings", None)
+    sampled = rdmesh.mesh_surface(surface, radius_bound=0.05)
+    for m in (exact, sampled):
         assert m.is_closed_manifold() and m.complete
-    assert capped.topology() == uncapped.topology()
-    assert capped.min_angle >= 30.0 - 1e-6
+        assert m.min_angle >= 30.0 - 1e-6
+    assert exact.topology() == sampled.topology()
+    assert exact.stats["evaluations"] < 0.5 * sampled.stats["evaluations"]
+    # The vertices lie on the input mesh.
+    assert np.abs(surface.signed_distance(exact.vertices)).max() < 1e-9 * surface.radius

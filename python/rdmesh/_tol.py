@@ -24,9 +24,6 @@ TANGENCY_COS = 1e-3
 # -- dual segment sampling ------------------------------------------------------
 #: Samples per unit of asinh(distance / circumradius): spacing about r.
 SAMPLES_PER_RADIUS = 1.0
-#: A dual segment is proven empty by f's Lipschitz constant only with this
-#: margin (times R) to spare.
-LIPSCHITZ_MARGIN = 1e-9
 #: Bounds on the intervals per dual segment.
 MIN_INTERVALS, MAX_INTERVALS = 3, 64
 

@@ -12,7 +12,6 @@ from .refine.criteria import FacetCriteria, Sizing
 from .refine.feature_curves import has_given_curves, search_creases
 from .refine.mesher import Budget, Mesher
 from .refine.methods import METHODS, TOPOLOGIES
-from .surfaces._mesh_queries import run_surface
 from .surfaces.expressions import Expression
 from .surfaces.oracle import ImplicitSurface
 from .surfaces.volume import VolumeSurface
@@ -254,11 +253,8 @@ def mesh_surface(
     if radius_bound is None and method == "boissonnat-oudot":
         criteria = FacetCriteria(angle_bound, surface.radius / 20.0, distance_bound)
     budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
-    run = surface
-    if isinstance(criteria.radius_bound, float):
-        run = run_surface(surface, criteria.radius_bound)
     mesher = Mesher(
-        run,
+        surface,
         criteria,
         method=method,
         topology=topology,
@@ -271,18 +267,13 @@ def mesh_surface(
         edge_size=edge_size,
         creases=creases,
     )
-    try:
-        if progress is True:
-            from .progress import ProgressBar
+    if progress is True:
+        from .progress import ProgressBar
 
-            with ProgressBar() as bar:
-                mesher.progress = bar.update
-                return mesher.run()
-        return mesher.run()
-    finally:
-        if run is not surface:  # the run's evaluations are the surface's
-            with surface._lock:
-                surface.evaluations += run.evaluations
+        with ProgressBar() as bar:
+            mesher.progress = bar.update
+            return mesher.run()
+    return mesher.run()
 
 
 def _topology(surface: ImplicitSurface, topology: str | None, method: str) -> str:

@@ -148,6 +148,13 @@ class MeshDistance:
     def winding_number(
         self, points: npt.ArrayLike, beta: float = 2.5
     ) -> npt.NDArray[np.float64]: ...
+    def segment_hits(
+        self, segments: npt.ArrayLike
+    ) -> tuple[
+        npt.NDArray[np.int64],  # (m,) segment of each hit
+        npt.NDArray[np.float64],  # (m,) t in [0, 1], NaN when ill-conditioned
+        npt.NDArray[np.int64],  # (m,) face hit
+    ]: ...
     def self_intersections(self) -> npt.NDArray[np.int64]: ...  # (k, 2) face pairs
     @property
     def has_side(self) -> bool: ...

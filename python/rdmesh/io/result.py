@@ -36,7 +36,9 @@ class SurfaceMesh:
         (the power distance ``sqrt(d^2 - w)`` to a protecting ball's centre).
     stats : dict
         Run statistics: ``seconds``, ``rounds``, ``vertices``, ``faces``,
-        ``evaluations`` (points at which ``f`` was evaluated), ``inserted`` per
+        ``evaluations`` (points at which ``f`` was evaluated),
+        ``segment_queries`` (dual segments whose crossings a closed mesh gave
+        exactly, instead of samples of ``f``), ``inserted`` per
         stage, ``unresolved``, ``phase_seconds`` and more. ``phase_seconds``
         adds up the wall time of each phase of the main thread; its
         ``core_changed_facets`` and ``core_update_facets`` are the core
@@ -252,7 +254,12 @@ def _summary(mesh: SurfaceMesh) -> str:
         ),
         f"time {mesh.stats.get('seconds', float('nan')):.2f} s, "
         f"{mesh.stats.get('rounds', 0)} rounds, "
-        f"{mesh.stats.get('evaluations', 0)} evaluations of f",
+        f"{mesh.stats.get('evaluations', 0)} evaluations of f"
+        + (
+            f", {mesh.stats['segment_queries']} exact segment queries"
+            if mesh.stats.get("segment_queries")
+            else ""
+        ),
     ]
     if mesh.features is not None:
         f = mesh.features

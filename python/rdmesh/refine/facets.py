@@ -16,7 +16,6 @@ import numpy as np
 from .. import core
 from .._errors import OracleError
 from .._tol import (
-    LIPSCHITZ_MARGIN,
     MAX_INTERVALS,
     MIN_INTERVALS,
     ROOT_ATOL,
@@ -24,7 +23,7 @@ from .._tol import (
     TANGENCY_COS,
 )
 from .._vectors import row_norms
-from ..sampling.roots import SegmentSamples, line_crossings
+from ..sampling.roots import Crossings, SegmentSamples, line_crossings
 from ..surfaces.oracle import ImplicitSurface
 
 #: What the core's changed_facets and sample_segments take.
@@ -78,30 +77,6 @@ class DualSamples:
             self.interior[off[a] - 2 * a : off[b] - 2 * b],
         )
 
-    def select(self, keep: np.ndarray) -> DualSamples:
-        """The samples of the segments where ``keep`` (k,) bool is True."""
-        counts = np.diff(self.offsets)
-        offsets = np.zeros(int(keep.sum()) + 1, np.int64)
-        np.cumsum(counts[keep], out=offsets[1:])
-        inner = np.maximum(counts - 2, 0)
-        return DualSamples(
-            offsets, self.s[np.repeat(keep, counts)], self.interior[np.repeat(keep, inner)]
-        )
-
-
-def no_crossing_proven(surface: ImplicitSurface, ends: np.ndarray, length: np.ndarray):
-    """(k,) bool: segments that cannot meet the surface, by ``f``'s Lipschitz
-    constant (a closed mesh's clamped signed distance: 1). The ends have the
-    same sign, and the balls of radius ``|f| / L`` about them, where ``f``
-    cannot vanish, cover the segment. All False when no constant is known."""
-    lip = getattr(surface, "lipschitz", None)
-    if lip is None:
-        return np.zeros(len(ends), bool)
-    a, b = ends[:, 0], ends[:, 1]
-    # The margin covers the rounding of f and of the length.
-    margin = LIPSCHITZ_MARGIN * surface.radius
-    return (a * b > 0) & (np.abs(a) + np.abs(b) > float(lip) * length + margin)
-
 
 def evaluate_facets(
     surface: ImplicitSurface,
@@ -144,32 +119,31 @@ def evaluate_facets(
     )
     if k == 0:
         return out
-    if samples is None:
-        samples = DualSamples.of(seg, apex, rho)
-    flat = SegmentSamples(samples.offsets, samples.s)
     start = seg[:, 0]
     d = seg[:, 1] - start
     length = np.sqrt(np.einsum("ij,ij->i", d, d))
     u = d / np.where(length > 0, length, 1.0)[:, None]
-    xatol = ROOT_ATOL * surface.radius
-    if end_values is None:
-        v = surface(np.concatenate([samples.interior, seg[:, 0], seg[:, 1]]))
-        interior_values = v[: len(samples.interior)]
-        end_values = v[len(samples.interior) :].reshape(2, k).T
-        cr = line_crossings(surface, start, u, flat, xatol, interior_values, end_values)
+    exact = getattr(surface, "exact_crossings", None)
+    if exact is None:
+        cr = _sampled_crossings(surface, seg, apex, rho, u, end_values, samples)
+        cos = np.full(len(cr.segment), np.nan)
     else:
-        # Segments proven empty are not sampled inside: their crossings (none)
-        # are what the samples would have found.
-        keep = ~no_crossing_proven(surface, end_values, length)
-        searched = np.flatnonzero(keep)
-        if len(searched) < k:
-            samples = samples.select(keep)
-            flat = SegmentSamples(samples.offsets, samples.s)
-        cr = line_crossings(
-            surface, start[searched], u[searched], flat, xatol, surface(samples.interior),
-            end_values[searched],
-        )  # fmt: skip
-        cr.segment, cr.failed = searched[cr.segment], searched[cr.failed]
+        *found, cos, unsure = exact(seg)
+        cr = Crossings(*found)
+        # Degenerate hits (through an edge, say): those segments are sampled.
+        again = np.flatnonzero(unsure)
+        if len(again):
+            more = _sampled_crossings(surface, seg[again], apex[again], rho[again], u[again])
+            more.segment, more.failed = again[more.segment], again[more.failed]
+            order = np.argsort(np.r_[cr.segment, more.segment], kind="stable")
+            cos = np.r_[cos, np.full(len(more.segment), np.nan)][order]
+            cr = Crossings(
+                np.r_[cr.segment, more.segment][order],
+                np.r_[cr.s, more.s][order],
+                np.r_[cr.point, more.point][order],
+                np.r_[cr.rising, more.rising][order],
+                more.failed,
+            )
     out.clean = np.ones(k, bool)
     out.clean[cr.failed] = False
     if cr.segment.size == 0:
@@ -193,14 +167,20 @@ def evaluate_facets(
         r2 = np.einsum("ij,ij->i", d, d) - apex_weight[rows]
         out.radius[rows] = np.sqrt(np.maximum(r2, 0.0))
     out.outward[rows] = cr.rising[pick]
-    g = surface.grad(cr.point[pick])
-    # hypot: squaring underflows below 1e-154 and overflows above 1e154, which
-    # made every crossing of a scaled f look tangential.
-    gn = row_norms(g)
-    trusted = np.isfinite(gn) & (gn > 0)
-    _check_gradients(trusted, cr.point[pick])
-    with np.errstate(invalid="ignore", over="ignore"):
-        cos = np.abs(np.einsum("ij,ij->i", g, u[rows])) / np.where(trusted, gn, 1.0)
+    cos = cos[pick]
+    trusted = np.ones(len(pick), bool)
+    ask = np.flatnonzero(np.isnan(cos))
+    if len(ask):
+        g = surface.grad(cr.point[pick[ask]])
+        # hypot: squaring underflows below 1e-154 and overflows above 1e154,
+        # which made every crossing of a scaled f look tangential.
+        gn = row_norms(g)
+        trusted[ask] = np.isfinite(gn) & (gn > 0)
+        _check_gradients(trusted[ask], cr.point[pick[ask]])
+        with np.errstate(invalid="ignore", over="ignore"):
+            cos[ask] = np.abs(np.einsum("ij,ij->i", g, u[rows[ask]])) / np.where(
+                trusted[ask], gn, 1.0
+            )
     out.tangential[rows] = ~trusted | (cos < TANGENCY_COS)
     # A sign change whose root search failed: refine there (a Voronoi-edge
     # violation), never use the bracket as a surface point.
@@ -208,6 +188,23 @@ def evaluate_facets(
     out.failed = len(cr.failed)
     out.clean &= (out.n_cross <= 1) & ~out.tangential
     return out
+
+
+def _sampled_crossings(surface, seg, apex, rho, u, end_values=None, samples=None):
+    """Every crossing of the segments ``seg`` (unit directions ``u``) from
+    samples of ``f`` and root searches (``Crossings.failed``: segments whose
+    search failed); ``f`` at the ends and the samples when known."""
+    if samples is None:
+        samples = DualSamples.of(seg, apex, rho)
+    flat = SegmentSamples(samples.offsets, samples.s)
+    if end_values is None:
+        v = surface(np.concatenate([samples.interior, seg[:, 0], seg[:, 1]]))
+        interior_values = v[: len(samples.interior)]
+        end_values = v[len(samples.interior) :].reshape(2, len(seg)).T
+    else:
+        interior_values = surface(samples.interior)
+    xatol = ROOT_ATOL * surface.radius
+    return line_crossings(surface, seg[:, 0], u, flat, xatol, interior_values, end_values)
 
 
 #: Crossings with a zero or non-finite gradient: a few are singular points of

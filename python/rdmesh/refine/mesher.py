@@ -134,6 +134,8 @@ class Mesher:
         t0 = time.perf_counter()
         evals0 = self.surface.evaluations
         ivals0 = getattr(self.surface.f, "interval_evaluations", 0)
+        #: Exact segment queries before the run (closed meshes; see stats).
+        self.segment_queries0 = getattr(self.surface, "segment_queries", 0)
         shrink: list[tuple[np.ndarray, np.ndarray]] = []
         while True:
             mesh = _attempt(self, t0, evals0, ivals0, shrink)
@@ -407,6 +409,7 @@ def _result(
         rounds=m.rounds,
         evaluations=m.surface.evaluations - evals0,
         interval_evaluations=getattr(m.surface.f, "interval_evaluations", 0) - ivals0,
+        segment_queries=getattr(m.surface, "segment_queries", 0) - m.segment_queries0,
         samples=len(m.vertices),
         inserted=dict(m.samples.inserted),
         facets_evaluated=m.pipeline.evaluated,

@@ -41,6 +41,9 @@ CORE_CHUNK = 1 << 15
 CHUNK = 1 << 15
 #: A small first chunk: Python waits for it with nothing to overlap.
 FIRST_CHUNK = 1 << 13
+#: What changed_facets takes when the surface gives exact crossings: one
+#: interval per segment, no interior samples.
+NO_SAMPLES = {**SAMPLING, "min_intervals": 1, "max_intervals": 1}
 
 
 class FacetPipeline:
@@ -128,18 +131,23 @@ class FacetPipeline:
         updates = []
         changed = self._on_worker("core_changed_facets", rdt.changed_facets)
         update = self._on_worker("core_update_facets", rdt.update_facets)
-        job = self._worker.submit(changed, FIRST_CHUNK, **SAMPLING)
+        # Exact crossings (closed meshes) need neither samples nor f at the ends.
+        exact = getattr(self.surface, "exact_crossings", None) is not None
+        sampling = NO_SAMPLES if exact else SAMPLING
+        job = self._worker.submit(changed, FIRST_CHUNK, **sampling)
         while True:
             with timed("changed_facets"):
                 tri, seg, end_index, ends, rho, samples = job.result()
             if len(tri) == 0:
                 break
-            job = self._worker.submit(changed, CORE_CHUNK, **SAMPLING)
+            job = self._worker.submit(changed, CORE_CHUNK, **sampling)
             with timed("evaluate"):
-                f_ends = self.surface(ends)
-                if not self.clipped:
-                    check_sphere_ends(self.surface, ends, f_ends)
-                end_f = f_ends[end_index]
+                end_f = None
+                if not exact:
+                    f_ends = self.surface(ends)
+                    if not self.clipped:
+                        check_sphere_ends(self.surface, ends, f_ends)
+                    end_f = f_ends[end_index]
                 flags, centres = self._flags(vertices, tri, seg, end_f, rho, DualSamples(*samples))
             updates.append(self._worker.submit(update, flags, centres))
             self.evaluated += len(tri)
@@ -166,8 +174,9 @@ class FacetPipeline:
 
         def work(sl: slice) -> int:
             flags[sl], centres[sl], failed = _slice_flags(
-                self, vertices, tri[sl], seg[sl], rho[sl], end_f[sl], samples.take(sl)
-            )
+                self, vertices, tri[sl], seg[sl], rho[sl],
+                None if end_f is None else end_f[sl], samples.take(sl),
+            )  # fmt: skip
             return failed
 
         step = CHUNK if self._pool is None else -(-k // self.workers)

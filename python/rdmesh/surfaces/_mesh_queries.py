@@ -10,14 +10,14 @@ the mesh. What ``f``, its sign and its gradient are: the notes of
 
 from __future__ import annotations
 
-import copy
-import threading
+from functools import partial
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from .._errors import MeshInputError
 from ..core import MeshDistance
+from ._mesh_crossings import segment_crossings
 from ._mesh_input import is_closed_oriented, orient_normals, winding_ambiguity
 
 #: Below this distance (times the bounding radius) the gradient is the normal
@@ -91,10 +91,13 @@ class MeshQueries:
         #: The gradient is a unit vector wherever f is differentiable.
         self.unit_gradient = False
         v, f = self.vertices, self.faces
+        #: Exact crossings of dual segments (closed meshes; None: sampled), and their count.
+        self.exact_crossings, self.segment_queries = None, 0
         if self._core.has_side:
             self.sign_method = "side"
             self.ambiguous_share = 0.0
             self.lipschitz, self.unit_gradient = 1.0, True
+            self.exact_crossings = partial(segment_crossings, self)
         else:
             self.sign_method = "winding"
             self.ambiguous_share = winding_ambiguity(self._core, v, f, self._normals, norms)
@@ -191,28 +194,3 @@ class MeshQueries:
         """Generalized winding number of the mesh at ``(N, 3)`` points: ``(N,)``."""
         pts = _points(points)
         return self._core.winding_number(pts)
-
-
-#: A run's cap in radius bounds (:func:`run_surface`): the refinement reads ``f``
-#: exactly only within a few sample spacings of the surface.
-RUN_CAP = 4.0
-
-
-def run_surface(surface, radius_bound: float):
-    """``surface`` for a run at ``radius_bound``: a closed mesh's surface with
-    ``f`` clamped to ``+-RUN_CAP x radius_bound`` (when below its cap), sharing
-    the mesh, the core and the trees; ``surface`` itself otherwise.
-
-    The zero set, the sign and ``f`` within the cap are unchanged, and ``f``
-    stays 1-Lipschitz; points beyond the cap skip the exact closest-point query
-    (slowest near the medial axis of thin parts: 3.6x faster on a thin-handled
-    solid at 0.3 % of its diagonal). The copy counts its own evaluations.
-    """
-    cap = RUN_CAP * radius_bound
-    if getattr(surface, "sign_method", None) != "side" or not cap < surface.cap:
-        return surface
-    run = copy.copy(surface)
-    run.cap = cap
-    run.f, run.gradient = run._signed_distance, run._gradient
-    run._lock, run.evaluations = threading.Lock(), 0
-    return run

@@ -57,7 +57,7 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     sign_method : {"side", "winding"}
         How inside is told from outside (see Notes).
     cap : float
-        ``f`` is clamped to ``[-cap, cap]`` (``0.1 R``; a closed mesh's run, ``4 r`` if less).
+        ``f`` is clamped to ``[-cap, cap]`` (``0.1 R``).
     ambiguous_share : float
         Share of the area next to which the winding number is far from a
         whole number (0 for closed meshes).
@@ -76,8 +76,9 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
         ``report["input"]`` naming where (:meth:`input_report`).
     lipschitz : float or None
         1 when ``f`` is the clamped signed distance (closed input): the seeding
-        grid and the dual segments skip samples it proves needless. None with
-        the winding-number sign.
+        grid skips samples it proves needless. None with the winding-number sign.
+    exact_crossings, segment_queries : callable or None, int
+        Closed input: dual segments' crossings, exactly (see Notes); the count.
     unit_gradient : bool
         The gradient is a unit vector wherever ``f`` is differentiable
         (closed input): the report's singular-point search is skipped.
@@ -93,17 +94,16 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     Notes
     -----
     **Distance.** Unsigned distances and closest points come from CGAL's
-    ``AABB_tree`` (C++, GIL released, vectorised over the query points). The
-    gradient is ``sign * (p - closest) / |p - closest|``, the exact gradient
-    of the signed distance away from the medial axis; within ``1e-9 R`` of
-    the mesh, the normal of the closest face, turned to the outside (each
-    face's side is checked with the sign oracle). ``f`` is the signed distance
-    clamped to ``+-cap`` (``cap = 0.1 R``): points that a k-d tree of the
-    vertices shows to be farther than ``cap`` skip the exact query, which is
-    slowest there (near the medial axis many faces are almost equally far).
-    The zero set, the sign and ``f`` within ``cap`` are unchanged (a run at ``r``
-    clamps a closed mesh's ``f`` at ``4 r`` if less, on a copy);
+    ``AABB_tree`` (C++, GIL released, vectorised). The gradient is
+    ``sign * (p - closest) / |p - closest|``; within ``1e-9 R`` of the mesh,
+    the closest face's outward normal. ``f`` is the signed distance clamped
+    to ``+-cap`` (``0.1 R``): points that a k-d tree of the vertices shows to
+    be farther skip the exact query, slowest there (near the medial axis).
+    The zero set, the sign and ``f`` within ``cap`` are unchanged;
     :meth:`signed_distance` is not clamped. Queries may run in several threads.
+    For a closed input, dual segments meet the faces where CGAL's exact
+    ``do_intersect`` says (no samples of ``f``, no root searches); degenerate
+    hits (through an edge, say) fall back to sampling ``f``.
 
     **Sign.** Accepted inputs:
 
@@ -138,23 +138,21 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     for a run that ends with ``complete=True``: every angle is at least the
     angle bound, every surface Delaunay ball is below the size bound, every
     facet's circumcentre is within the distance bound of its surface centre,
-    every vertex lies on the input (to the root tolerance), and every output
-    triangle lies in a surface Delaunay ball centred on the input, so it is
-    within the size bound of the input. That the output is within that
-    distance of every part of the input, and keeps its topology, is sampled,
-    not proven: it holds when the size bound is below the feature size of
+    every vertex lies on the input (to rounding, or the root tolerance where
+    sampled), and every output triangle lies in a surface Delaunay ball
+    centred on the input, so it is within the size bound of the input. That
+    the output is within that distance of every part of the input, and keeps
+    its topology, is sampled, not proven: it holds when the size bound is below the feature size of
     the shape the mesh approximates (scans, organic shapes). Sharp creases
     (CAD models) are kept through ``feature_angle``: each sharp-edge chain is
     covered by protecting balls centred on the input's own edges (the output
     has a vertex at every corner and edges along every chain;
     ``SurfaceMesh.features`` reports the check). Flatter creases come out
     chamfered, by about the distance bound. Razor-thin wedges (two faces
-    folded onto each other, as when noise flips a sliver triangle) have no
-    feature size at all: if the bounds are fine enough to resolve them, the
-    facets whose dual crosses both sheets of a fold need refinement points
-    below the spacing floor, which are refused; the mesh is returned with
-    ``complete=False`` (or the vertex budget runs out there) and may not be
-    closed.
+    folded onto each other, as when noise flips a sliver) have no feature
+    size: where the bounds resolve them, refinement points fall below the
+    spacing floor and are refused; the mesh is then returned with
+    ``complete=False`` (or the vertex budget runs out) and may not be closed.
     """
 
     def __init__(
