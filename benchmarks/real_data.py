@@ -213,6 +213,10 @@ def run_rdmesh_remesh(ref, r: float) -> dict:
         "seconds": sec,
         "complete": m.complete,
         "evals_per_vertex": round(m.stats["evaluations"] / max(len(m.vertices), 1), 1),
+        # Dual segments whose crossings a closed mesh gave exactly (not samples of f).
+        "segments_per_vertex": round(
+            m.stats.get("segment_queries", 0) / max(len(m.vertices), 1), 1
+        ),
         "note": note or m.stats.get("stop_reason", ""),
     }
 
@@ -336,12 +340,12 @@ def volume_rows(quick: bool, cases: str | None = None) -> list[dict]:
 def table(rows: list[dict]) -> str:
     head = (
         "| case | size | mesher | vertices | s | comps | Euler | closed | min angle | "
-        "Hausdorff / diag | evals/vertex | note |"
+        "Hausdorff / diag | evals/vertex | segments/vertex | note |"
     )
-    lines = [head, "|" + "---|" * 12]
+    lines = [head, "|" + "---|" * 13]
     for r in rows:
         if "mesher" not in r:
-            lines.append(f"| {r['case']} | | skipped | | | | | | | | | {r['note']} |")
+            lines.append(f"| {r['case']} | | skipped | | | | | | | | | | {r['note']} |")
             continue
         ref = r.get("reference") or r.get("input")
         want = f" (want {ref['components']}, {ref['euler']})" if ref else ""
@@ -352,7 +356,7 @@ def table(rows: list[dict]) -> str:
             f"| {r['case']} | {r.get('size', '1 voxel')} | {r['mesher']} | {r['vertices']} | "
             f"{r['seconds']} | {r['components']} | {euler}{want} | {r['closed']} | "
             f"{r['min_angle']} | {r.get('hausdorff_diag', '')} | "
-            f"{r.get('evals_per_vertex', '')} | "
+            f"{r.get('evals_per_vertex', '')} | {r.get('segments_per_vertex', '')} | "
             f"{str(r.get('note', ''))[:90]} |"
         )
     return "\n".join(lines)
