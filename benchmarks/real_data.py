@@ -83,6 +83,18 @@ def folded(h: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
     return _mc(f, (-1.15,) * 3, (1.15,) * 3, h)
 
 
+def cut_holes(v: np.ndarray, f: np.ndarray, k: int = 3, frac: float = 0.03):
+    """``(v, f)`` without the faces within ``frac`` of the diagonal of ``k`` of its
+    vertices (evenly spaced in index order): an open scan with ``k`` holes. rdmesh
+    closes them (the winding number's patch); pymeshlab keeps them."""
+    diag = np.linalg.norm(np.ptp(v, axis=0))
+    centres = v[f].mean(axis=1)
+    keep = np.ones(len(f), bool)
+    for i in np.linspace(0, len(v) - 1, k + 2)[1:-1].astype(int):
+        keep &= np.linalg.norm(centres - v[i], axis=1) > frac * diag
+    return v, f[keep]
+
+
 def specks(n: int = 48) -> np.ndarray:
     """A binary ball with five one-voxel specks beside it (6 components)."""
     g = np.indices((n, n, n)).transpose(1, 2, 3, 0) - n / 2
@@ -104,8 +116,10 @@ def mesh_inputs() -> dict[str, tuple[np.ndarray, np.ndarray] | str]:
             ms.load_new_mesh(str(base / file))
             m = ms.current_mesh()
             out[name] = (m.vertex_matrix().copy(), m.face_matrix().astype(np.int64))
+        out["bunny, 3 holes cut (open scan)"] = cut_holes(*out["bunny (scan)"])
     except ImportError:
         out["bunny (scan)"] = out["bone"] = "pymeshlab not installed"
+        out["bunny, 3 holes cut (open scan)"] = "pymeshlab not installed"
     try:
         from nilearn import datasets
 

@@ -232,3 +232,90 @@ def test_remeshing_uses_exact_crossings_and_keeps_the_topology(monkeypatch):
     assert exact.stats["evaluations"] < 0.5 * sampled.stats["evaluations"]
     # The vertices lie on the input mesh.
     assert np.abs(surface.signed_distance(exact.vertices)).max() < 1e-9 * surface.radius
+
+
+# -- open meshes: crossings from the faces and the winding number's jumps --------------
+
+
+def open_sphere(n=32):
+    """A sphere mesh of radius 0.8 with a cap above z = 0.7 removed (one hole)."""
+    v, f = sphere_mesh((0, 0, 0), 0.8, n)
+    return v, f[v[f].mean(axis=1)[:, 2] < 0.7]
+
+
+def test_hole_balls_cover_each_hole():
+    from rdmesh.surfaces._mesh_crossings import HOLE_MARGIN, hole_balls
+
+    v, f = open_sphere()
+    centres, radii = hole_balls(v, f)
+    assert len(centres) == 1
+    rim = np.sqrt(0.8**2 - 0.7**2)  # the hole's radius
+    assert np.allclose(centres[0], [0, 0, 0.7], atol=0.05)
+    assert abs(radii[0] / HOLE_MARGIN - rim) < 0.05
+    closed = sphere_mesh((0, 0, 0), 0.8, 16)
+    assert len(hole_balls(*closed)[0]) == 0
+
+
+def test_running_sums_restart_with_each_segment():
+    from rdmesh.surfaces._mesh_crossings import _cumsum_by
+
+    group = np.array([0, 0, 0, 2, 2, 5])
+    x = np.array([1.0, -1.0, 1.0, -1.0, -1.0, 1.0])
+    assert _cumsum_by(group, x).tolist() == [1.0, 0.0, 1.0, -1.0, -2.0, 1.0]
+
+
+def test_open_mesh_crossings_match_the_sampled_search():
+    from rdmesh.refine.facets import _sampled_crossings
+    from rdmesh.sampling.roots import Crossings
+    from rdmesh.surfaces._mesh_crossings import _near_balls, hole_balls
+
+    surface = rdmesh.MeshSurface(open_sphere())
+    assert surface.sign_method == "winding" and surface.exact_crossings is not None
+    rng = np.random.default_rng(13)
+    v = surface.vertices
+    a = v[rng.integers(0, len(v), 3000)] + rng.normal(0, 0.1, (3000, 3))
+    seg = np.stack([a, a + rng.normal(0, 0.2, (3000, 3))], axis=1)
+    *found, cos, unsure = surface.exact_crossings(seg)
+    cr = Crossings(*found)
+    # Segments in the hole's ball are left to sampling; almost no others are.
+    near_hole = _near_balls(seg, *hole_balls(surface.vertices, surface.faces))
+    assert near_hole.sum() > 100 and unsure[near_hole].all() and unsure[~near_hole].mean() < 0.02
+    d = seg[:, 1] - seg[:, 0]
+    length = np.linalg.norm(d, axis=1)
+    u = d / length[:, None]
+    ref = _sampled_crossings(surface, seg, seg[:, 0], 0.05 * np.ones(len(seg)), u)
+    sure = np.flatnonzero(~unsure)
+    exact_n, ref_n = cr.count(len(seg))[sure], ref.count(len(seg))[sure]
+    assert len(cr.segment) > 500 and (exact_n == ref_n).mean() > 0.97 and np.all(ref_n <= exact_n)
+    both = np.isin(cr.segment, sure[exact_n == ref_n])
+    other = np.isin(ref.segment, sure[exact_n == ref_n])
+    assert np.allclose(cr.point[both], ref.point[other], atol=1e-7)
+    assert np.array_equal(cr.rising[both], ref.rising[other])
+
+
+def test_a_face_against_its_neighbours_leaves_its_segments_to_sampling():
+    v, f = open_sphere()
+    f = f.copy()
+    low = int(np.argmin(v[f].mean(axis=1)[:, 2]))  # a face at the bottom, far from the hole
+    f[low] = f[low, ::-1]
+    surface = rdmesh.MeshSurface((v, f))
+    c = v[f[low]].mean(axis=0)
+    side = c * [1, 1, 0] + [0.3, 0.0, -0.3]  # through the bottom, beside that face
+    seg = np.array([[c + [0, 0, 0.1], c - [0, 0, 0.1]], [side - [0, 0, 0.6], side]])
+    segment, _, _, _, _, unsure = surface.exact_crossings(seg)
+    assert unsure.tolist() == [True, False]
+    assert segment.tolist() == [1]
+
+
+def test_remeshing_an_open_mesh_with_exact_crossings_keeps_the_topology(monkeypatch):
+    surface = rdmesh.MeshSurface(open_sphere())
+    exact = rdmesh.mesh_surface(surface, radius_bound=0.06)
+    assert exact.stats["segment_queries"] > 0
+    monkeypatch.setattr(surface, "exact_crossings", None)
+    sampled = rdmesh.mesh_surface(surface, radius_bound=0.06)
+    for m in (exact, sampled):
+        assert m.is_closed_manifold() and m.complete  # the hole is closed
+        assert m.min_angle >= 30.0 - 1e-6
+    assert exact.topology() == sampled.topology()
+    # Fewer, though the hole's ball (a good part of this small sphere) is sampled.
+    assert exact.stats["evaluations"] < 0.95 * sampled.stats["evaluations"]

@@ -57,3 +57,112 @@ def segment_crossings(surface, seg: np.ndarray):
     hit, s, t, dn = hit[keep], s[keep], t[keep], dn[keep]
     point = start[hit] + t[:, None] * d[hit]
     return hit, s, point, dn > 0, np.abs(dn), unsure
+
+
+#: Open meshes: an end whose winding number is farther than this from a whole
+#: number is near a hole (where ``f``'s zero set leaves the faces).
+WINDING_CLEAR = 0.125
+#: ... and a segment that comes within this many times a hole's radius of the
+#: hole's centre may cross the surface that closes it (``w = 0.5``).
+HOLE_MARGIN = 1.5
+
+
+def hole_balls(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The holes of an open mesh as balls: per loop of boundary edges, the
+    centroid of its vertices and ``HOLE_MARGIN`` times their largest distance
+    from it. ``((L, 3), (L,))``."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    edges, count = np.unique(e, axis=0, return_counts=True)
+    rim = edges[count == 1]
+    if len(rim) == 0:
+        return np.zeros((0, 3)), np.zeros(0)
+    ids, local = np.unique(rim, return_inverse=True)
+    local = local.reshape(-1, 2)
+    n = len(ids)
+    graph = coo_matrix((np.ones(len(local)), (local[:, 0], local[:, 1])), shape=(n, n))
+    k, label = connected_components(graph, directed=False)
+    pts = v[ids]
+    centres = np.stack([np.bincount(label, pts[:, a], k) for a in range(3)], axis=1)
+    centres /= np.bincount(label, minlength=k)[:, None]
+    reach = np.linalg.norm(pts - centres[label], axis=1)
+    radii = np.zeros(k)
+    np.maximum.at(radii, label, reach)
+    return centres, HOLE_MARGIN * radii
+
+
+def _near_balls(seg: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """(k,) bool: segments that meet one of the balls."""
+    near = np.zeros(len(seg), bool)
+    a, d = seg[:, 0], seg[:, 1] - seg[:, 0]
+    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    for c, r in zip(centres, radii, strict=True):
+        t = np.clip(np.einsum("ij,ij->i", c - a, d) / dd, 0.0, 1.0)
+        q = a + t[:, None] * d - c
+        near |= np.einsum("ij,ij->i", q, q) <= r * r
+    return near
+
+
+def winding_crossings(surface, seg: np.ndarray):
+    """:func:`segment_crossings` for an open mesh, whose sign is the winding number's.
+
+    Across a face the winding number ``w`` jumps by one (up when going to the
+    face's back); away from holes it is a whole number off the faces, so the
+    crossings are the hits where it passes 0.5, and a segment that meets no
+    face has none. Segments near a hole (in a hole's ball, or with an end
+    whose ``w`` is not clear of 0.5's band) and segments whose jumps do not
+    add up to ``w``'s change between the ends (faces oriented against their
+    neighbours) are ``unsure``. ``w`` is evaluated at the ends of the segments
+    that meet a face only, and counted in ``surface.evaluations``.
+    """
+    seg = np.ascontiguousarray(seg, dtype=np.float64).reshape(-1, 2, 3)
+    k = len(seg)
+    hit, t, face = surface._core.segment_hits(seg)
+    start, d = seg[:, 0], seg[:, 1] - seg[:, 0]
+    length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    unsure = _near_balls(seg, *surface._holes)
+    bad = ~np.isfinite(t) | (t <= 0.0) | (t >= 1.0)
+    unsure[hit[bad]] = True
+    hit, t, face = hit[~bad], t[~bad], face[~bad]
+    s = t * length[hit]
+    same = hit[1:] == hit[:-1]
+    unsure[hit[1:][same & (s[1:] - s[:-1] <= HIT_MERGE * surface.radius)]] = True
+    # w at the ends of the segments that meet a face.
+    met = np.zeros(k, bool)
+    met[hit] = True
+    met &= ~unsure
+    ends, back = np.unique(seg[met].reshape(-1, 3), axis=0, return_inverse=True)
+    with surface._lock:
+        surface.segment_queries += k
+        surface.evaluations += len(ends)
+    whole = np.zeros((k, 2))
+    if len(ends):
+        w = surface._core.winding_number(ends)[back.reshape(-1)].reshape(-1, 2)
+        whole[met] = np.round(w)
+        unsure[np.flatnonzero(met)[(np.abs(w - whole[met]) > WINDING_CLEAR).any(axis=1)]] = True
+    v, f = surface.vertices, surface.faces
+    raw = np.cross(v[f[face, 1]] - v[f[face, 0]], v[f[face, 2]] - v[f[face, 0]])
+    raw /= np.maximum(np.linalg.norm(raw, axis=1), 1e-300)[:, None]
+    dn = np.einsum("ij,ij->i", raw, d[hit]) / length[hit]
+    jump = np.where(dn < 0, 1.0, -1.0)  # to the face's back: w goes up by one
+    unsure |= met & (whole[:, 0] + np.bincount(hit, jump, minlength=k) != whole[:, 1])
+    keep = ~unsure[hit]
+    hit, s, t, dn, jump = hit[keep], s[keep], t[keep], dn[keep], jump[keep]
+    # w just after each hit: the start's plus the jumps so far along its segment.
+    after = whole[hit, 0] + _cumsum_by(hit, jump)
+    before = after - jump
+    cross = (before > 0.5) != (after > 0.5)
+    hit, s, t, dn, rising = hit[cross], s[cross], t[cross], dn[cross], (before > 0.5)[cross]
+    point = start[hit] + t[:, None] * d[hit]
+    return hit, s, point, rising, np.abs(dn), unsure
+
+
+def _cumsum_by(group: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Running sums of ``x`` within runs of equal, sorted ``group``."""
+    c = np.cumsum(x)
+    first = np.r_[True, group[1:] != group[:-1]]
+    # The index of each run's first element, carried forward.
+    head = np.maximum.accumulate(np.where(first, np.arange(len(x)), 0))
+    return c - (c - x)[head]

@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 
 from .._errors import MeshInputError
 from ..core import MeshDistance
-from ._mesh_crossings import segment_crossings
+from ._mesh_crossings import hole_balls, segment_crossings, winding_crossings
 from ._mesh_input import is_closed_oriented, orient_normals, winding_ambiguity
 
 #: Below this distance (times the bounding radius) the gradient is the normal
@@ -101,6 +101,8 @@ class MeshQueries:
         else:
             self.sign_method = "winding"
             self.ambiguous_share = winding_ambiguity(self._core, v, f, self._normals, norms)
+            self._holes = hole_balls(v, f)
+            self.exact_crossings = partial(winding_crossings, self)
         orient_normals(v, f, self._normals, norms, self._sign)
 
     def _query(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

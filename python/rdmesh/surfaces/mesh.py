@@ -77,8 +77,8 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     lipschitz : float or None
         1 when ``f`` is the clamped signed distance (closed input): the seeding
         grid skips samples it proves needless. None with the winding-number sign.
-    exact_crossings, segment_queries : callable or None, int
-        Closed input: dual segments' crossings, exactly (see Notes); the count.
+    exact_crossings, segment_queries : callable, int
+        Dual segments' crossings from the faces they meet (see Notes); the count.
     unit_gradient : bool
         The gradient is a unit vector wherever ``f`` is differentiable
         (closed input): the report's singular-point search is skipped.
@@ -101,9 +101,9 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     be farther skip the exact query, slowest there (near the medial axis).
     The zero set, the sign and ``f`` within ``cap`` are unchanged;
     :meth:`signed_distance` is not clamped. Queries may run in several threads.
-    For a closed input, dual segments meet the faces where CGAL's exact
-    ``do_intersect`` says (no samples of ``f``, no root searches); degenerate
-    hits (through an edge, say) fall back to sampling ``f``.
+    Dual segments meet the faces where CGAL's exact ``do_intersect`` says (no
+    samples of ``f``, no root searches); degenerate hits, and open meshes'
+    segments near a hole, fall back to sampling ``f``.
 
     **Sign.** Accepted inputs:
 
