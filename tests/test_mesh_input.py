@@ -319,3 +319,13 @@ def test_remeshing_an_open_mesh_with_exact_crossings_keeps_the_topology(monkeypa
     assert exact.topology() == sampled.topology()
     # Fewer, though the hole's ball (a good part of this small sphere) is sampled.
     assert exact.stats["evaluations"] < 0.95 * sampled.stats["evaluations"]
+
+
+def test_the_gradient_is_a_unit_vector_off_the_holes_band():
+    surface = rdmesh.MeshSurface(open_sphere())
+    p = np.array([[0.0, 0.0, 0.7], [0.0, 0.0, -0.9], [0.9, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    assert surface.unit_gradient_at(p).tolist() == [False, True, True, True]
+    g = surface.grad(p[1:])
+    assert np.allclose(np.linalg.norm(g, axis=1), 1.0)
+    closed = rdmesh.MeshSurface(sphere_mesh((0, 0, 0), 0.8, 16))
+    assert closed.unit_gradient_at(p).all()

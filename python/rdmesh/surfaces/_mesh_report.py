@@ -97,6 +97,15 @@ class MeshReport:
         out["statement"] = "; ".join(said)
         return out
 
+    def unit_gradient_at(self, points: np.ndarray) -> np.ndarray:
+        """(N,) bool: points where ``f``'s gradient, where it has one, is a unit
+        vector, so that no singular point lies there: everywhere for a closed
+        mesh, off the band about an open mesh's holes (``|4 (1 - 2w)| < 1``)."""
+        pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        if self.sign_method == "side":
+            return np.ones(len(pts), bool)
+        return np.abs(self._winding_factor(pts)) >= 1.0
+
     def sheet_gap(self, points: np.ndarray) -> np.ndarray:
         """Distance across the thinnest part (inside or outside) of the input at
         points on it, ``(k,)``: twice the distance from the point to the

@@ -47,8 +47,13 @@ def singular_points(surface: ImplicitSurface, probes: Probes, seed: int = 0) -> 
     if not scale > 0:
         return np.zeros((0, 3))
     rng = np.random.default_rng(seed)
-    weak = np.argsort(gn, kind="stable")[:SINGULAR_STARTS]
-    rand = rng.choice(len(pts), min(SINGULAR_STARTS, len(pts)), replace=False)
+    # Starts only where the gradient may vanish (an open mesh: next to its holes).
+    unit_at = getattr(surface, "unit_gradient_at", None)
+    cand = np.arange(len(pts)) if unit_at is None else np.flatnonzero(~unit_at(pts))
+    if len(cand) == 0:
+        return np.zeros((0, 3))
+    weak = cand[np.argsort(gn[cand], kind="stable")[:SINGULAR_STARTS]]
+    rand = rng.choice(cand, min(SINGULAR_STARTS, len(cand)), replace=False)
     x = pts[np.unique(np.concatenate([weak, rand]))].copy()
     h = HESSIAN_STEP * R
     eye = np.eye(3)
