@@ -10,6 +10,8 @@ whose hits are degenerate is reported, for the sampled search.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 #: Two faces met by a segment closer than this (times the bounding radius)
@@ -41,22 +43,48 @@ def segment_crossings(surface, seg: np.ndarray):
     seg = np.ascontiguousarray(seg, dtype=np.float64).reshape(-1, 2, 3)
     with surface._lock:
         surface.segment_queries += len(seg)
-    hit, t, face = surface._core.segment_hits(seg)
-    start, d = seg[:, 0], seg[:, 1] - seg[:, 0]
-    length = np.sqrt(np.einsum("ij,ij->i", d, d))
-    unsure = np.zeros(len(seg), bool)
-    bad = ~np.isfinite(t) | (t <= 0.0) | (t >= 1.0)
-    unsure[hit[bad]] = True
-    hit, t, face = hit[~bad], t[~bad], face[~bad]
-    dn = np.einsum("ij,ij->i", surface._normals[face], d[hit]) / length[hit]
-    s = t * length[hit]
+    h = _Hits.of(surface, seg)
+    hit = h.hit
+    dn = np.einsum("ij,ij->i", surface._normals[h.face], h.d[hit]) / h.length[hit]
     same = hit[1:] == hit[:-1]
-    merged = s[1:] - s[:-1] <= HIT_MERGE * surface.radius
-    unsure[hit[1:][same & (merged | ((dn[1:] > 0) == (dn[:-1] > 0)))]] = True
-    keep = ~unsure[hit]
-    hit, s, t, dn = hit[keep], s[keep], t[keep], dn[keep]
-    point = start[hit] + t[:, None] * d[hit]
-    return hit, s, point, dn > 0, np.abs(dn), unsure
+    h.unsure[hit[1:][same & ((dn[1:] > 0) == (dn[:-1] > 0))]] = True
+    keep = ~h.unsure[hit]
+    return h.crossings(keep, dn[keep] > 0, np.abs(dn[keep]))
+
+
+@dataclass
+class _Hits:
+    """A segment's hits (``MeshDistance.segment_hits``) but the degenerate ones:
+    ``unsure`` marks the segments with a hit nearly in a face's plane or at an
+    end, or two within ``HIT_MERGE`` (through an edge or a vertex)."""
+
+    start: np.ndarray  # (k, 3)
+    d: np.ndarray  # (k, 3) end - start
+    length: np.ndarray  # (k,)
+    hit: np.ndarray  # (m,) segment of each hit, sorted
+    t: np.ndarray  # (m,) the hit at start + t d
+    face: np.ndarray  # (m,)
+    unsure: np.ndarray  # (k,) bool
+
+    @classmethod
+    def of(cls, surface, seg: np.ndarray) -> _Hits:
+        hit, t, face = surface._core.segment_hits(seg)
+        start, d = seg[:, 0], seg[:, 1] - seg[:, 0]
+        length = np.sqrt(np.einsum("ij,ij->i", d, d))
+        unsure = np.zeros(len(seg), bool)
+        bad = ~np.isfinite(t) | (t <= 0.0) | (t >= 1.0)
+        unsure[hit[bad]] = True
+        hit, t, face = hit[~bad], t[~bad], face[~bad]
+        s = t * length[hit]
+        same = hit[1:] == hit[:-1]
+        unsure[hit[1:][same & (s[1:] - s[:-1] <= HIT_MERGE * surface.radius)]] = True
+        return cls(start, d, length, hit, t, face, unsure)
+
+    def crossings(self, keep: np.ndarray, rising: np.ndarray, cos: np.ndarray):
+        """The hits ``keep`` as crossings: :func:`segment_crossings`' tuple."""
+        hit, t = self.hit[keep], self.t[keep]
+        point = self.start[hit] + t[:, None] * self.d[hit]
+        return hit, t * self.length[hit], point, rising, cos, self.unsure
 
 
 #: Open meshes: an end whose winding number is farther than this from a whole
@@ -119,16 +147,9 @@ def winding_crossings(surface, seg: np.ndarray):
     """
     seg = np.ascontiguousarray(seg, dtype=np.float64).reshape(-1, 2, 3)
     k = len(seg)
-    hit, t, face = surface._core.segment_hits(seg)
-    start, d = seg[:, 0], seg[:, 1] - seg[:, 0]
-    length = np.sqrt(np.einsum("ij,ij->i", d, d))
-    unsure = _near_balls(seg, *surface._holes)
-    bad = ~np.isfinite(t) | (t <= 0.0) | (t >= 1.0)
-    unsure[hit[bad]] = True
-    hit, t, face = hit[~bad], t[~bad], face[~bad]
-    s = t * length[hit]
-    same = hit[1:] == hit[:-1]
-    unsure[hit[1:][same & (s[1:] - s[:-1] <= HIT_MERGE * surface.radius)]] = True
+    h = _Hits.of(surface, seg)
+    hit, unsure = h.hit, h.unsure  # unsure is h's own: crossings() returns it
+    unsure |= _near_balls(seg, *surface._holes)
     # w at the ends of the segments that meet a face.
     met = np.zeros(k, bool)
     met[hit] = True
@@ -142,21 +163,20 @@ def winding_crossings(surface, seg: np.ndarray):
         w = surface._core.winding_number(ends)[back.reshape(-1)].reshape(-1, 2)
         whole[met] = np.round(w)
         unsure[np.flatnonzero(met)[(np.abs(w - whole[met]) > WINDING_CLEAR).any(axis=1)]] = True
-    v, f = surface.vertices, surface.faces
-    raw = np.cross(v[f[face, 1]] - v[f[face, 0]], v[f[face, 2]] - v[f[face, 0]])
+    v, f = surface.vertices, surface.faces[h.face]
+    raw = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     raw /= np.maximum(np.linalg.norm(raw, axis=1), 1e-300)[:, None]
-    dn = np.einsum("ij,ij->i", raw, d[hit]) / length[hit]
+    dn = np.einsum("ij,ij->i", raw, h.d[hit]) / h.length[hit]
     jump = np.where(dn < 0, 1.0, -1.0)  # to the face's back: w goes up by one
     unsure |= met & (whole[:, 0] + np.bincount(hit, jump, minlength=k) != whole[:, 1])
-    keep = ~unsure[hit]
-    hit, s, t, dn, jump = hit[keep], s[keep], t[keep], dn[keep], jump[keep]
+    sel = np.flatnonzero(~unsure[hit])
     # w just after each hit: the start's plus the jumps so far along its segment.
-    after = whole[hit, 0] + _cumsum_by(hit, jump)
-    before = after - jump
-    cross = (before > 0.5) != (after > 0.5)
-    hit, s, t, dn, rising = hit[cross], s[cross], t[cross], dn[cross], (before > 0.5)[cross]
-    point = start[hit] + t[:, None] * d[hit]
-    return hit, s, point, rising, np.abs(dn), unsure
+    after = whole[hit[sel], 0] + _cumsum_by(hit[sel], jump[sel])
+    inside_before = after - jump[sel] > 0.5
+    cross = inside_before != (after > 0.5)
+    keep = np.zeros(len(hit), bool)
+    keep[sel[cross]] = True
+    return h.crossings(keep, inside_before[cross], np.abs(dn[keep]))
 
 
 def _cumsum_by(group: np.ndarray, x: np.ndarray) -> np.ndarray:
