@@ -1,5 +1,6 @@
-// Bindings of the dual segments' sampling and sign scan (sampling.hpp,
-// sample_scan.hpp): rdmesh.sampling.roots and the facet pipeline use them.
+// Bindings of the dual segments' sampling and sign scan, and the slope field
+// (sampling.hpp, sample_scan.hpp, grid_field.hpp): rdmesh.sampling.roots,
+// rdmesh.sampling.screen and the facet pipeline use them.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "grid_field.hpp"
 #include "sample_scan.hpp"
 #include "sampling.hpp"
 
@@ -95,7 +97,7 @@ void register_sampling(py::module_& m) {
                                    ends ? E.data() : nullptr, dip_fraction);
         }
         auto sign = py::make_tuple(to_numpy(r.seg), to_numpy(r.lo), to_numpy(r.hi),
-                                   to_numpy(r.rising));
+                                   to_numpy(r.rising), to_numpy(r.f_lo), to_numpy(r.f_hi));
         auto dips = py::make_tuple(to_numpy(r.dip_seg), to_numpy(r.dip_x1), to_numpy(r.dip_x2),
                                    to_numpy(r.dip_x3), to_numpy(r.dip_sign));
         auto valleys = py::make_tuple(to_numpy(r.val_seg), to_numpy(r.val_lo), to_numpy(r.val_hi),
@@ -106,9 +108,66 @@ void register_sampling(py::module_& m) {
       py::arg("offsets"), py::arg("s"), py::arg("values"), py::arg("ends") = py::none(),
       py::arg("dip_fraction") = 0.25,
       "The sign scan of sampled segments (see rdmesh.sampling.roots): "
-      "((seg, lo, hi, rising) sign changes, (seg, x1, x2, x3, sign) dips, "
+      "((seg, lo, hi, rising, f at lo, f at hi) sign changes, (seg, x1, x2, x3, sign) dips, "
       "(seg, lo, hi, inside, |f| at lo, |f| at hi) valleys). values: f at every "
       "sample, or at the interior samples only when ends (k, 2) are given.");
+
+  py::class_<GridField>(m, "GridField",
+                        "A field on the nodes of a rotated grid, looked up at the node "
+                        "nearest a point (see rdmesh.sampling.screen).")
+      .def(py::init([](const InArray& values, const InArray& centre, const InArray& rotation,
+                       const InArray& offset, double h) {
+             if (values.ndim() != 3) throw std::invalid_argument("values must be 3-D");
+             if (centre.size() != 3 || offset.size() != 3 || rotation.size() != 9)
+               throw std::invalid_argument("centre and offset need 3 values, rotation 9");
+             std::array<double, 3> c, o;
+             std::array<double, 9> r;
+             std::copy(centre.data(), centre.data() + 3, c.begin());
+             std::copy(offset.data(), offset.data() + 3, o.begin());
+             std::copy(rotation.data(), rotation.data() + 9, r.begin());
+             return GridField(copy_of<double>(values),
+                              {values.shape(0), values.shape(1), values.shape(2)}, c, r, o, h);
+           }),
+           py::arg("values"), py::arg("centre"), py::arg("rotation"), py::arg("offset"),
+           py::arg("h"))
+      .def(
+          "at",
+          [](const GridField& g, const InArray& points) {
+            const auto P = rows3(points, "points");
+            std::vector<double> out(P.size() / 3);
+            for (std::size_t i = 0; i < out.size(); ++i) out[i] = g.at(&P[3 * i]);
+            return to_numpy(out);
+          },
+          py::arg("points"), "The value at each point's nearest node; inf off the grid.")
+      .def(
+          "raise_to",
+          [](GridField& g, const InArray& points, const InArray& values, std::int64_t cells) {
+            const auto P = rows3(points, "points");
+            if (values.ndim() != 1 || static_cast<std::size_t>(values.shape(0)) != P.size() / 3)
+              throw std::invalid_argument("values must have one entry per point");
+            if (cells < 0) throw std::invalid_argument("cells must be >= 0");
+            const double* v = values.data();
+            for (std::size_t i = 0; i < P.size() / 3; ++i) g.raise(&P[3 * i], v[i], cells);
+          },
+          py::arg("points"), py::arg("values"), py::arg("cells"),
+          "Raise the nodes within cells steps of each point's nearest node to its value.")
+      .def(
+          "segment_bounds",
+          [](const GridField& g, const InArray& seg, double reach, double scale, double cap) {
+            if (seg.ndim() != 3 || seg.shape(1) != 2 || seg.shape(2) != 3)
+              throw std::invalid_argument("seg must have shape (k, 2, 3)");
+            std::vector<double> out(static_cast<std::size_t>(seg.shape(0)));
+            g.segment_bounds(seg.data(), out.size(), reach, scale, cap, out.data());
+            return to_numpy(out);
+          },
+          py::arg("seg"), py::arg("reach"), py::arg("scale"), py::arg("cap"),
+          "Per segment: min(cap, scale * the value at its middle) if it is at most "
+          "reach long, else cap.")
+      .def_property_readonly("values", [](const GridField& g) {
+        std::vector<double> v = g.values();
+        const auto& n = g.shape();
+        return to_numpy(v, {n[0], n[1], n[2]});
+      });
 }
 
 }  // namespace rdmesh::bind

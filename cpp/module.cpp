@@ -60,7 +60,8 @@ py::tuple facet_quad(rdmesh::ChangedFacets& f) {
   const auto u = static_cast<py::ssize_t>(f.ends.size() / 3);
   return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.seg, {k, 2, 3}),
                         to_numpy(f.end_index, {k, 2}), to_numpy(f.ends, {u, 3}),
-                        to_numpy(f.rho, {k}), samples_tuple(f.samples));
+                        to_numpy(f.rho, {k}), samples_tuple(f.samples),
+                        to_numpy(f.end_f, {u}), to_numpy(f.end_prev, {u}));
 }
 
 void silent_handler(const char*, const char*, const char*, int, const char*) {}
@@ -183,20 +184,30 @@ PYBIND11_MODULE(_rdt, m) {
           "Returns ((k, 3) sorted "
           "vertex ids, (k, 2, 3) clipped dual segments, (k, 2) indices of the "
           "segment ends into (u, 3) distinct end points, (k,) facet "
-          "circumradii, samples), samples as from sample_segments. After an "
-          "exception the next call hands out the same facets.")
+          "circumradii, samples, (u,) f at the ends where kept from an earlier "
+          "update_facets, NaN elsewhere, (u,) each end's index among the ends "
+          "of the previous call, -1 if it was none), samples as from "
+          "sample_segments. After an exception the next call hands out the "
+          "same facets.")
       .def(
           "update_facets",
-          [](RestrictedDelaunay& self, const FlagArray& flags, const InArray& centres) {
+          [](RestrictedDelaunay& self, const FlagArray& flags, const InArray& centres,
+             std::optional<InArray> end_f) {
             const std::vector<double> xyz = rows3(centres, "centres");
             if (flags.ndim() != 1 || flags.shape(0) * 3 != static_cast<py::ssize_t>(xyz.size()))
               throw std::invalid_argument("flags must have shape (k,) matching centres (k, 3)");
+            if (end_f && end_f->ndim() != 1) throw std::invalid_argument("end_f must be 1-D");
             const std::vector<std::uint8_t> fl = copy_of<std::uint8_t>(flags);
-            locked(self, [&] { self.update_facets(fl.data(), xyz.data(), fl.size()); });
+            const std::vector<double> ef = end_f ? copy_of<double>(*end_f) : std::vector<double>();
+            locked(self, [&] {
+              self.update_facets(fl.data(), xyz.data(), fl.size(), end_f ? ef.data() : nullptr,
+                                 ef.size());
+            });
           },
-          py::arg("flags"), py::arg("centres"),
+          py::arg("flags"), py::arg("centres"), py::arg("end_f") = py::none(),
           "Set the flags (k,) and surface centres (k, 3) of the oldest chunk "
-          "from changed_facets not yet updated, in its order.")
+          "from changed_facets not yet updated, in its order; end_f (u,), f at "
+          "the chunk's ends, is kept for later chunks.")
       .def(
           "restart_round",
           [](RestrictedDelaunay& self) { locked(self, [&] { self.restart_round(); }); },

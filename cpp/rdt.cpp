@@ -431,21 +431,30 @@ ChangedFacets RestrictedDelaunay::changed_facets(
   out.end_index.reserve(2 * guess);
   out.rho.reserve(guess);
   out.ends.reserve(3 * guess);
+  out.end_f.reserve(guess);
+  out.end_prev.reserve(guess);
   out.samples.reserve(guess, 6);
   Chunk chunk;
   chunk.facets.reserve(guess);
+  chunk.end_cells.reserve(guess);
   auto cell_end = [&](Cell_handle c) {
     CellInfo& info = c->info();
     if (info.end_stamp != call_) {
+      out.end_prev.push_back(info.end_stamp == call_ - 1 ? info.end_idx : -1);
       info.end_stamp = call_;
       info.end_idx = static_cast<std::int32_t>(out.ends.size() / 3);
       const Vec3& p = circumcentre(c);
       out.ends.insert(out.ends.end(), p.begin(), p.end());
+      out.end_f.push_back(info.f);
+      chunk.end_cells.push_back(c);
     }
     return static_cast<std::int64_t>(info.end_idx);
   };
   auto point_end = [&](const Vec3& p) {
     out.ends.insert(out.ends.end(), p.begin(), p.end());
+    out.end_f.push_back(std::numeric_limits<double>::quiet_NaN());
+    out.end_prev.push_back(-1);
+    chunk.end_cells.push_back(Cell_handle());
     return static_cast<std::int64_t>(out.ends.size() / 3 - 1);
   };
   // The round's progress (cursor_) is committed only at the end, once the
@@ -554,16 +563,25 @@ void RestrictedDelaunay::withdraw_chunk(std::uint64_t serial) {
   // again (cells after them that gave no facet are simply visited again).
   cursor_ = pending_.back().begin;
   pending_.pop_back();
+  // The caller never saw this call's ends: the next call must not refer to
+  // them (at the counter's end, the next call resets every stamp).
+  if (call_ < std::numeric_limits<std::int32_t>::max()) ++call_;
 }
 
 void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
-                                       const double* centres, std::size_t n) {
+                                       const double* centres, std::size_t n,
+                                       const double* end_f, std::size_t n_ends) {
   const std::size_t want = pending_.empty() ? 0 : pending_.front().facets.size();
   if (n != want)
     throw std::invalid_argument(
         "update_facets needs one entry per facet of the oldest chunk from "
         "changed_facets() not yet updated (expected " + std::to_string(want) +
         ", got " + std::to_string(n) + "); no insert may come in between");
+  const std::size_t ends = pending_.empty() ? 0 : pending_.front().end_cells.size();
+  if (end_f != nullptr && n_ends != ends)
+    throw std::invalid_argument(
+        "update_facets needs f at every end of the chunk (expected " + std::to_string(ends) +
+        ", got " + std::to_string(n_ends) + ")");
   if (n == 0) return;
   // Allocate before writing: a throw leaves the chunk pending, untouched.
   std::size_t restricted = 0;
@@ -592,6 +610,9 @@ void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
     c->info().centre[i] = idx;
     nb->info().centre[j] = idx;
   }
+  if (end_f != nullptr)
+    for (std::size_t e = 0; e < n_ends; ++e)
+      if (chunk.end_cells[e] != Cell_handle()) chunk.end_cells[e]->info().f = end_f[e];
 }
 
 void RestrictedDelaunay::restart_round() {

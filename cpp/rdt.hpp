@@ -68,11 +68,14 @@ struct VertexInfo {
   std::int64_t id = -2;  // -1 for dummies, >= 0 for samples
 };
 
-// Kept small (64 bytes): cell size is a large part of insertion time and of
+// Kept small (72 bytes): cell size is a large part of insertion time and of
 // the memory of a run.
 struct CellInfo {
   // Cached circumcentre; NaN until computed.
   std::array<double, 3> cc{std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0};
+  // f at the circumcentre, as Python gave it with a chunk's flags; NaN until
+  // then (a cell's circumcentre never moves, so neither does f there).
+  double f = std::numeric_limits<double>::quiet_NaN();
   // Surface centre per facet, as an index into RestrictedDelaunay::centres_
   // (both sides of a facet share it; -1: none).
   std::array<std::int32_t, 4> centre{-1, -1, -1, -1};
@@ -132,6 +135,13 @@ struct ChangedFacets {
   // several segments appears once, so f is evaluated there once.
   std::vector<std::int64_t> end_index;  // k*2
   std::vector<double> ends;             // u*3
+  // f at each end where a cell keeps it from an earlier chunk (NaN: unknown,
+  // or a clipped end, which is no circumcentre).
+  std::vector<double> end_f;            // u
+  // The index of each end among the ends of the previous changed_facets
+  // call, when it was one there too (-1 otherwise): that chunk may not be
+  // updated yet, so its f is not kept, but the caller has it.
+  std::vector<std::int64_t> end_prev;   // u
   std::vector<double> rho;              // k facet circumradii
   SegmentSamples samples;  // per facet, its apex the smallest-id vertex
   std::uint64_t chunk = 0;  // serial of the pending chunk (0: none), for
@@ -189,8 +199,12 @@ class RestrictedDelaunay {
   // out the whole round again.
   ChangedFacets changed_facets(std::size_t max_facets = 0,
                                const SegmentSampling& sampling = {});
+  // end_f: null, or f at the chunk's u ends (as changed_facets numbered
+  // them; n_ends must be u), kept in their cells for later chunks (NaN: not
+  // kept).
   void update_facets(const std::uint8_t* flags, const double* centres,
-                     std::size_t n);
+                     std::size_t n, const double* end_f = nullptr,
+                     std::size_t n_ends = 0);
 
   // Undoes the changed_facets call that returned chunk `serial`, if that
   // chunk is still the newest pending one (module.cpp: the result could not
@@ -309,6 +323,7 @@ class RestrictedDelaunay {
   };
   struct Chunk {
     std::vector<Side> facets;
+    std::vector<Cell_handle> end_cells;  // the cell of each end (null: clipped)
     std::size_t begin = 0;     // its first cell in fresh_
     std::uint64_t serial = 0;  // as ChangedFacets::chunk
   };

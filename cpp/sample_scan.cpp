@@ -31,6 +31,8 @@ SampleScan scan_samples(const std::int64_t* offsets, std::size_t K, const double
         out.lo.push_back(x[i]);
         out.hi.push_back(x[i + 1]);
         out.rising.push_back(in(i));
+        out.f_lo.push_back(v[i]);
+        out.f_hi.push_back(v[i + 1]);
       }
     dip.assign(n, 0);
     for (std::int64_t m = 1; m + 1 < n; ++m) {

@@ -11,10 +11,12 @@
 namespace rdmesh {
 
 struct SampleScan {
-  // Sign changes: segment, the bracket [lo, hi], f going inside -> outside.
+  // Sign changes: segment, the bracket [lo, hi], f going inside -> outside,
+  // and f at lo and hi (so the root search need not evaluate it again).
   std::vector<std::int64_t> seg;
   std::vector<double> lo, hi;
   std::vector<std::uint8_t> rising;
+  std::vector<double> f_lo, f_hi;
   // Dips: a sample m whose |f| is below dip_fraction x the larger of its two
   // neighbours' and below both, with one sign over all three: segment, the
   // three positions, and the sign of f (-1 inside, +1 outside).

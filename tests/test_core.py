@@ -126,7 +126,7 @@ def test_changed_facets_are_delaunay_facets_with_clipped_duals():
     rng = np.random.default_rng(3)
     rdt = _rdt_new(radius=1.5)
     rdt.insert(rng.uniform(-1, 1, (60, 3)))
-    tri, seg, end_index, ends, rho, samples = rdt.changed_facets()
+    tri, seg, end_index, ends, rho, samples, *_ = rdt.changed_facets()
     assert np.all(tri[:, 0] < tri[:, 1]) and np.all(tri[:, 1] < tri[:, 2])
     assert len(np.unique(tri, axis=0)) == len(tri)
     assert np.all(rdt.is_facet(tri))
@@ -222,7 +222,7 @@ def _drive_and_compare(surface, seeds, criteria, max_rounds=60, known=False):
     rounds = 0
     for rounds in range(1, max_rounds + 1):  # noqa: B007
         P = rdt.samples()
-        tri, seg, end_index, ends, rho, samples = rdt.changed_facets()
+        tri, seg, end_index, ends, rho, samples, *_ = rdt.changed_facets()
         assert np.allclose(rho, circumradii(P[tri]), rtol=1e-9)
         ev = evaluate_facets(
             surface, P[tri[:, 0]], seg, rho, surface(ends)[end_index], DualSamples(*samples)
@@ -381,7 +381,7 @@ def _drain(rdt, max_facets):
     """All chunks of a round, updating each with 'restricted' flags."""
     seen = []
     while True:
-        tri, seg, ei, ends, rho, _ = rdt.changed_facets(max_facets)
+        tri, seg, ei, ends, rho, *_ = rdt.changed_facets(max_facets)
         if len(tri) == 0:
             return seen
         assert len(tri) <= max_facets + 12  # a chunk ends with its last cell
@@ -546,7 +546,7 @@ def test_voronoi_vertices_are_equidistant_from_their_samples_on_nearly_flat_cell
     rdt = _rdt.RestrictedDelaunay(np.zeros(3), 1.0)
     rdt.insert(_nearly_cocircular_cloud())
     p = rdt.samples()
-    tri, _, end_index, ends, _, _ = rdt.changed_facets(0)
+    tri, _, end_index, ends, *_ = rdt.changed_facets(0)
     checked = 0
     for side in range(2):
         e = ends[end_index[:, side]]

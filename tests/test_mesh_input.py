@@ -185,7 +185,7 @@ def test_exact_crossings_match_the_sampled_search():
     length = np.linalg.norm(d, axis=1)
     u = d / length[:, None]
     apex = seg[:, 0]
-    ref = _sampled_crossings(surface, seg, apex, 0.05 * np.ones(len(seg)), u)
+    ref, _ = _sampled_crossings(surface, seg, apex, 0.05 * np.ones(len(seg)), u)
     # The samples may miss two crossings closer than their spacing; never
     # one that the exact search does not have.
     exact_n, ref_n = cr.count(len(seg)), ref.count(len(seg))
@@ -283,7 +283,7 @@ def test_open_mesh_crossings_match_the_sampled_search():
     d = seg[:, 1] - seg[:, 0]
     length = np.linalg.norm(d, axis=1)
     u = d / length[:, None]
-    ref = _sampled_crossings(surface, seg, seg[:, 0], 0.05 * np.ones(len(seg)), u)
+    ref, _ = _sampled_crossings(surface, seg, seg[:, 0], 0.05 * np.ones(len(seg)), u)
     sure = np.flatnonzero(~unsure)
     exact_n, ref_n = cr.count(len(seg))[sure], ref.count(len(seg))[sure]
     assert len(cr.segment) > 500 and (exact_n == ref_n).mean() > 0.97 and np.all(ref_n <= exact_n)
@@ -317,8 +317,9 @@ def test_remeshing_an_open_mesh_with_exact_crossings_keeps_the_topology(monkeypa
         assert m.is_closed_manifold() and m.complete  # the hole is closed
         assert m.min_angle >= 30.0 - 1e-6
     assert exact.topology() == sampled.topology()
-    # Fewer, though the hole's ball (a good part of this small sphere) is sampled.
-    assert exact.stats["evaluations"] < 0.95 * sampled.stats["evaluations"]
+    # Fewer, though the hole's ball (a good part of this small sphere) is
+    # sampled, and the sampled run clears most segments by the slope bound.
+    assert exact.stats["evaluations"] < sampled.stats["evaluations"]
 
 
 def test_the_gradient_is_a_unit_vector_off_the_holes_band():

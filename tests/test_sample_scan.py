@@ -20,7 +20,9 @@ def reference(offsets, s, values):
         v = values[offsets[k] : offsets[k + 1]]
         a, inside, n = np.abs(v), v < 0, len(v)
         sign += [
-            (k, x[i], x[i + 1], inside[i]) for i in range(n - 1) if inside[i] != inside[i + 1]
+            (k, x[i], x[i + 1], inside[i], v[i], v[i + 1])
+            for i in range(n - 1)
+            if inside[i] != inside[i + 1]
         ]
         dip = np.zeros(n, bool)
         for m in range(1, n - 1):
@@ -65,7 +67,7 @@ def test_scan_matches_the_rules(data):
     offsets, s, v = _case(lengths, values)
     sign, dips, valleys = core.scan_samples(offsets, s, v, None, DIP)
     want = reference(offsets, s, v)
-    assert rows(sign) == [(k, lo, hi, int(r)) for k, lo, hi, r in want[0]]
+    assert rows(sign) == [(k, lo, hi, int(r), a, b) for k, lo, hi, r, a, b in want[0]]
     assert rows(dips) == want[1]
     assert rows(valleys) == [(k, lo, hi, int(i), a, b) for k, lo, hi, i, a, b in want[2]]
 

@@ -109,7 +109,9 @@ def scan_samples(
         npt.NDArray[np.float64],
         npt.NDArray[np.float64],
         npt.NDArray[np.uint8],
-    ],  # sign changes: seg, lo, hi, rising
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+    ],  # sign changes: seg, lo, hi, rising, f at lo, f at hi
     tuple[
         npt.NDArray[np.int64],
         npt.NDArray[np.float64],
@@ -186,8 +188,12 @@ class RestrictedDelaunay:
         npt.NDArray[np.float64],  # ... (u, 3) distinct end points
         npt.NDArray[np.float64],  # (k,) facet circumradii
         _SegmentSamples,
+        npt.NDArray[np.float64],  # (u,) f at the ends kept by the core, NaN elsewhere
+        npt.NDArray[np.int64],  # (u,) index among the previous call's ends, or -1
     ]: ...
-    def update_facets(self, flags: npt.ArrayLike, centres: npt.ArrayLike) -> None: ...
+    def update_facets(
+        self, flags: npt.ArrayLike, centres: npt.ArrayLike, end_f: npt.ArrayLike | None = None
+    ) -> None: ...
     def restart_round(self) -> None: ...
     def facets(
         self, mask: int = 0
@@ -234,6 +240,23 @@ class RestrictedDelaunay:
     @property
     def exact_circumcentres(self) -> int: ...
     def check(self) -> None: ...
+
+class GridField:
+    def __init__(
+        self,
+        values: npt.ArrayLike,
+        centre: npt.ArrayLike,
+        rotation: npt.ArrayLike,
+        offset: npt.ArrayLike,
+        h: float,
+    ) -> None: ...
+    def at(self, points: npt.ArrayLike) -> npt.NDArray[np.float64]: ...
+    def raise_to(self, points: npt.ArrayLike, values: npt.ArrayLike, cells: int) -> None: ...
+    def segment_bounds(
+        self, seg: npt.ArrayLike, reach: float, scale: float, cap: float
+    ) -> npt.NDArray[np.float64]: ...
+    @property
+    def values(self) -> npt.NDArray[np.float64]: ...
 
 class VolumeSampler:
     def __init__(

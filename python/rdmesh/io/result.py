@@ -38,7 +38,9 @@ class SurfaceMesh:
         Run statistics: ``seconds``, ``rounds``, ``vertices``, ``faces``,
         ``evaluations`` (points at which ``f`` was evaluated),
         ``segment_queries`` (dual segments whose crossings a closed mesh gave
-        exactly, instead of samples of ``f``), ``inserted`` per
+        exactly, instead of samples of ``f``), ``slope_bound`` (the bound on
+        ``|grad f|`` that let dual segments go unsampled: ``value``, whether
+        ``proven``; None without one), ``inserted`` per
         stage, ``unresolved``, ``phase_seconds`` and more. ``phase_seconds``
         adds up the wall time of each phase of the main thread; its
         ``core_changed_facets`` and ``core_update_facets`` are the core

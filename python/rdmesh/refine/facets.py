@@ -24,6 +24,7 @@ from .._tol import (
 )
 from .._vectors import row_norms
 from ..sampling.roots import Crossings, SegmentSamples, line_crossings
+from ..sampling.screen import end_slopes, ruled_out
 from ..surfaces.oracle import ImplicitSurface
 
 #: What the core's changed_facets and sample_segments take.
@@ -47,6 +48,9 @@ class FacetEval:
     #: (k,) bool: no crossing or one transversal one, and no failed root search
     #: (the core's KNOWN flag).
     clean: np.ndarray | None = None
+    #: (k,) the slope of f between each segment's ends (zeros without a
+    #: slope bound).
+    steep: np.ndarray | None = None
 
     @property
     def restricted(self) -> np.ndarray:
@@ -65,6 +69,17 @@ class DualSamples:
     @classmethod
     def of(cls, seg: np.ndarray, apex: np.ndarray, rho: np.ndarray) -> DualSamples:
         return cls(*core.sample_segments(seg, apex, rho, **SAMPLING))
+
+    def select(self, rows: np.ndarray) -> DualSamples:
+        """The samples of segments ``rows`` (increasing indices)."""
+        n = np.diff(self.offsets)
+        mask = np.zeros(len(n), bool)
+        mask[rows] = True
+        return DualSamples(
+            np.r_[0, np.cumsum(n[rows])].astype(np.int64),
+            self.s[np.repeat(mask, n)],
+            self.interior[np.repeat(mask, n - 2)],
+        )
 
     def take(self, sl: slice) -> DualSamples:
         """The samples of segments ``sl`` (a contiguous slice)."""
@@ -86,6 +101,7 @@ def evaluate_facets(
     end_values: np.ndarray | None = None,
     samples: DualSamples | None = None,
     apex_weight: np.ndarray | None = None,
+    slope: np.ndarray | None = None,
 ) -> FacetEval:
     """Find the crossings of each facet's dual segment.
 
@@ -103,6 +119,9 @@ def evaluate_facets(
     apex_weight : (k,) float, optional
         The apex's weight (a protecting ball's radius squared): the ball
         radius is then the power radius ``sqrt(|x - apex|^2 - w)``.
+    slope : (k,) float, optional
+        A bound on ``|grad f|`` along each segment: intervals between samples
+        that it rules out are not sampled (:mod:`rdmesh.sampling.screen`).
 
     Returns
     -------
@@ -116,6 +135,7 @@ def evaluate_facets(
         np.zeros(k, bool),
         np.zeros(k, bool),
         clean=np.ones(k, bool),
+        steep=np.zeros(k),
     )
     if k == 0:
         return out
@@ -125,7 +145,7 @@ def evaluate_facets(
     u = d / np.where(length > 0, length, 1.0)[:, None]
     exact = getattr(surface, "exact_crossings", None)
     if exact is None:
-        cr = _sampled_crossings(surface, seg, apex, rho, u, end_values, samples)
+        cr, out.steep = _sampled_crossings(surface, seg, apex, rho, u, end_values, samples, slope)
         cos = np.full(len(cr.segment), np.nan)
     else:
         *found, cos, unsure = exact(seg)
@@ -133,7 +153,10 @@ def evaluate_facets(
         # Degenerate hits (through an edge, say): those segments are sampled.
         again = np.flatnonzero(unsure)
         if len(again):
-            more = _sampled_crossings(surface, seg[again], apex[again], rho[again], u[again])
+            more, out.steep[again] = _sampled_crossings(
+                surface, seg[again], apex[again], rho[again], u[again],
+                slope=None if slope is None else slope[again],
+            )  # fmt: skip
             more.segment, more.failed = again[more.segment], again[more.failed]
             order = np.argsort(np.r_[cr.segment, more.segment], kind="stable")
             cos = np.r_[cos, np.full(len(more.segment), np.nan)][order]
@@ -190,12 +213,39 @@ def evaluate_facets(
     return out
 
 
-def _sampled_crossings(surface, seg, apex, rho, u, end_values=None, samples=None):
+def _sampled_crossings(surface, seg, apex, rho, u, end_values=None, samples=None, slope=None):
     """Every crossing of the segments ``seg`` (unit directions ``u``) from
     samples of ``f`` and root searches (``Crossings.failed``: segments whose
-    search failed); ``f`` at the ends and the samples when known."""
-    if samples is None:
-        samples = DualSamples.of(seg, apex, rho)
+    search failed), and the slope of ``f`` between each segment's ends; ``f``
+    at the ends and the samples when known. With ``slope`` bounds (one per
+    segment) the segments they clear are not sampled
+    (:mod:`rdmesh.sampling.screen`); the others are sampled here, unless
+    ``samples`` has them all."""
+    k = len(seg)
+    if slope is None:
+        if samples is None:
+            samples = DualSamples.of(seg, apex, rho)
+        return _all_samples(surface, seg, u, end_values, samples), np.zeros(k)
+    if end_values is None:
+        end_values = surface(np.concatenate([seg[:, 0], seg[:, 1]])).reshape(2, k).T
+    length = row_norms(seg[:, 1] - seg[:, 0])
+    steep = end_slopes(end_values, length, surface.radius)
+    rows = np.flatnonzero(~ruled_out(end_values, length, slope))
+    if len(rows) == 0:
+        return Crossings(
+            np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 3)), np.zeros(0, bool)
+        ), steep
+    if samples is not None:
+        samples = samples.select(rows) if len(rows) < k else samples
+    else:
+        samples = DualSamples.of(seg[rows], apex[rows], rho[rows])
+    cr = _all_samples(surface, seg[rows], u[rows], end_values[rows], samples)
+    cr.segment, cr.failed = rows[cr.segment], rows[cr.failed]
+    return cr, steep
+
+
+def _all_samples(surface, seg, u, end_values, samples):
+    """The crossings from every sample of each segment (``f`` at the ends when known)."""
     flat = SegmentSamples(samples.offsets, samples.s)
     if end_values is None:
         v = surface(np.concatenate([samples.interior, seg[:, 0], seg[:, 1]]))

@@ -28,6 +28,7 @@ from ..io.result import SurfaceMesh
 from ..sampling.boundary import BoundaryCurve, guard_boundary
 from ..sampling.domain import clip_box
 from ..sampling.grid import check_sphere_near
+from ..sampling.screen import slope_bound
 from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
@@ -251,6 +252,7 @@ def _attempt(m: Mesher, t0: float, evals0: int, ivals0: int, shrink: list) -> Su
             m.certify, edge_size=m.edge_size, shrink=shrink, creases=m.creases,
         )  # fmt: skip
     m.plan = plan
+    m.pipeline.slope = slope_bound(m.surface, plan.slopes)
     seeds, stop = plan.seeds, None
     cap = m.budget.max_vertices
     if cap is not None and len(seeds) > cap:
@@ -276,6 +278,13 @@ def _attempt(m: Mesher, t0: float, evals0: int, ivals0: int, shrink: list) -> Su
     if stop:
         raise _stopped(stop, mesh, interrupted, m.stalled)
     return mesh
+
+
+def _slope_stats(bound) -> dict | None:
+    """What ``stats["slope_bound"]`` says of the bound that thinned the samples."""
+    if bound is None:
+        return None
+    return {"value": bound.value, "proven": bound.proven}
 
 
 def _boundary_placer(m: Mesher, plan: Plan):
@@ -414,6 +423,7 @@ def _result(
         inserted=dict(m.samples.inserted),
         facets_evaluated=m.pipeline.evaluated,
         facets_reused=m.pipeline.rdt.reused_facets,
+        slope_bound=_slope_stats(m.pipeline.slope),
         exact_circumcentres=m.pipeline.rdt.exact_circumcentres,
         phase_seconds={k: round(v, 4) for k, v in timing.items()},
         unresolved=len(mesh.unresolved),

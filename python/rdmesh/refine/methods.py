@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -32,6 +32,7 @@ from ..sampling.discovery import Discovery
 from ..sampling.domain import clip_box, depth, on_clip_surface
 from ..sampling.grid import GridScan, fibonacci_sphere, grid_scan
 from ..sampling.probes import Probes, surface_probes, unit_normals
+from ..sampling.screen import SlopeField
 from ..surfaces.oracle import ImplicitSurface
 from ..surfaces.volume import VolumeSurface
 from ..topology.tests import CELL_NORMAL_ANGLE, PROBE_TARGET, TESTS
@@ -78,6 +79,8 @@ class Plan:
     features_abandoned: str | None = None
     #: The balls were placed beforehand (``features=ProtectingBalls``): not repaired.
     balls_given: bool = False
+    #: The seeding grid's local slopes of f (:class:`GridScan`), if measured.
+    slopes: SlopeField | None = None
 
 
 def boissonnat_oudot(
@@ -144,15 +147,14 @@ def boissonnat_oudot(
             graph, abandoned = None, str(exc)
     if balls is not None:
         # A seed in a ball would be hidden, or a vertex next to a curve.
-        scan = GridScan(scan.seeds[~balls.inside(scan.seeds, SEED_CLEARANCE)],
-                        scan.crossings, scan.spacing)  # fmt: skip
+        scan = replace(scan, seeds=scan.seeds[~balls.inside(scan.seeds, SEED_CLEARANCE)])
     if clipped and balls is None and boundary is not None and len(boundary.points):
         # Unprotected: seeds in the band along the clipping surface could be
         # boundary vertices, so the boundary's samples come first.
         size = _boundary_spacing(surface, criteria)
         inner = scan.seeds[depth(surface, scan.seeds) >= SEED_BAND * size]
         seeds = np.concatenate([boundary.points, _away(inner, boundary.points, 0.5 * size)])
-        scan = GridScan(seeds, scan.crossings, scan.spacing)
+        scan = replace(scan, seeds=seeds)
     soft = _angle_only_at_boundary(surface, criteria) if clipped and balls is None else None
     stages: list[Stage] = [FacetStage("facet", core.BAD | core.TOPO, "unless-bad", soft)]
     if topology != "non-manifold":
@@ -175,6 +177,7 @@ def boissonnat_oudot(
         balls=balls,
         features_abandoned=abandoned,
         balls_given=given is not None,
+        slopes=scan.slopes,
     )
 
 
@@ -281,6 +284,7 @@ def topological_ball(
         floor_report={"topology": f"{TOPOLOGY_FLOOR:g} x radius_bound"}
         if bound is not None
         else {"topology": floor},
+        slopes=scan.slopes,
     )
 
 
@@ -305,7 +309,7 @@ def _scan(
     log.info(
         "discovery: %d seeds, %d of them from the grid", len(seeds), len(seeds) - len(found.points)
     )
-    scan = GridScan(seeds, np.concatenate([scan.crossings, found.points]), scan.spacing)
+    scan = replace(scan, seeds=seeds, crossings=np.concatenate([scan.crossings, found.points]))
     return scan, found
 
 

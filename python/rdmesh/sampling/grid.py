@@ -24,6 +24,7 @@ from .._vectors import row_norms
 from ..surfaces.oracle import ImplicitSurface
 from .domain import clip_box, depth
 from .roots import SegmentSamples, line_crossings
+from .screen import SlopeField
 
 log = logging.getLogger("rdmesh")
 
@@ -48,11 +49,14 @@ class GridScan:
     seeds : (m, 3) the thinned crossings: the initial sample.
     crossings : (c, 3) every grid-edge crossing (a probe set on the surface).
     spacing : grid spacing h.
+    slopes : the local slopes of ``f`` between the grid's nodes (None when
+        not measured: a Lipschitz ``f``'s grid skips nodes).
     """
 
     seeds: np.ndarray
     crossings: np.ndarray
     spacing: float
+    slopes: SlopeField | None = None
 
 
 def grid_scan(
@@ -180,7 +184,10 @@ def grid_scan(
         n_labels,
         len(out),
     )
-    return GridScan(out, points, h)
+    slopes = None
+    if lipschitz is None:
+        slopes = SlopeField(F, h, c0, rot, R + h - shift, ~outside_ball)
+    return GridScan(out, points, h, slopes)
 
 
 #: Stride of the coarse grid of :func:`_lipschitz_grid`.

@@ -124,7 +124,7 @@ def line_crossings(
         seg_of = samples.segment_of()
         values = surface(origin[seg_of] + samples.s[:, None] * direction[seg_of])
         ends = None
-    (seg, lo, hi, rising), dips, valleys = core.scan_samples(
+    (seg, lo, hi, rising, f_lo, f_hi), dips, valleys = core.scan_samples(
         samples.offsets, samples.s, values, ends, DIP_FRACTION
     )
     rising = rising.view(bool)
@@ -135,9 +135,11 @@ def line_crossings(
         if found[0].size:
             parts = zip((seg, lo, hi, rising), found, strict=True)
             seg, lo, hi, rising = (np.concatenate(p) for p in parts)
+            # f at the new brackets' ends is not kept: the search evaluates it.
+            f_lo, f_hi = (np.r_[v, np.full(len(found[0]), np.nan)] for v in (f_lo, f_hi))
     if seg.size == 0:
         return _empty()
-    root, ok = refine_brackets(surface, origin[seg], direction[seg], lo, hi, xatol)
+    root, ok = refine_brackets(surface, origin[seg], direction[seg], lo, hi, xatol, (f_lo, f_hi))
     failed = np.unique(seg[~ok])
     seg, root, rising = seg[ok], root[ok], rising[ok]
     order = np.lexsort((root, seg))
@@ -154,14 +156,42 @@ def _line_function(surface):
     return g
 
 
+def _known_first(g, known):
+    """``g`` that answers its first calls from ``known``, a list of ``(s,
+    f(s))`` (NaN where f is unknown), while they ask for exactly those ``s``
+    in that order. scipy's searches start by evaluating the bracket's ends,
+    one call each, and f is known there from the samples; should a search
+    ask otherwise, every call evaluates."""
+    pending = list(known)
+
+    def h(s, *args):
+        if pending:
+            x, fx = pending.pop(0)
+            if s.shape == x.shape and np.array_equal(s, x):
+                out = np.array(fx, dtype=float)
+                miss = np.isnan(out)
+                if miss.any():
+                    out[miss] = g(s[miss], *(a[miss] for a in args))
+                return out
+            pending.clear()
+        return g(s, *args)
+
+    return h
+
+
 def _coords(o: np.ndarray, d: np.ndarray) -> tuple:
     return (o[:, 0], o[:, 1], o[:, 2], d[:, 0], d[:, 1], d[:, 2])
 
 
-def refine_brackets(surface, o, d, lo, hi, xatol):
-    """Roots of ``f(o + s d)`` in the brackets ``[lo, hi]``: (s, converged)."""
+def refine_brackets(surface, o, d, lo, hi, xatol, known=None):
+    """Roots of ``f(o + s d)`` in the brackets ``[lo, hi]``: (s, converged).
+    ``known``: f at ``lo`` and at ``hi`` where known (NaN elsewhere), which
+    the search then takes instead of evaluating it."""
+    g = _line_function(surface)
+    if known is not None:
+        g = _known_first(g, [(lo, known[0]), (hi, known[1])])
     res = elementwise.find_root(
-        _line_function(surface),
+        g,
         (lo, hi),
         args=_coords(o, d),
         tolerances={"xatol": xatol, "xrtol": 0.0},
