@@ -163,6 +163,22 @@ void register_sampling(py::module_& m) {
           py::arg("seg"), py::arg("reach"), py::arg("scale"), py::arg("cap"),
           "Per segment: min(cap, scale * the value at its middle) if it is at most "
           "reach long, else cap.")
+      .def(
+          "clearing_values",
+          [](const GridField& g, const InArray& seg, const InArray& bound) {
+            if (seg.ndim() != 3 || seg.shape(1) != 2 || seg.shape(2) != 3)
+              throw std::invalid_argument("seg must have shape (k, 2, 3)");
+            if (bound.ndim() != 1 || bound.shape(0) != seg.shape(0))
+              throw std::invalid_argument("bound must have one entry per segment");
+            std::vector<double> out(static_cast<std::size_t>(seg.shape(0)));
+            g.clearing_values(seg.data(), out.size(), bound.data(), out.data());
+            return to_numpy(out);
+          },
+          py::arg("seg"), py::arg("bound"),
+          "Where the field holds f and bound (k,) bounds |grad f|: per segment, f "
+          "at the node nearest its middle when that node's |f| exceeds bound times "
+          "the distance from the node to every point of the segment (no zero on it); "
+          "NaN elsewhere.")
       .def_property_readonly("values", [](const GridField& g) {
         std::vector<double> v = g.values();
         const auto& n = g.shape();

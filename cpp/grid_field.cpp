@@ -69,4 +69,36 @@ void GridField::segment_bounds(const double* seg, std::size_t k, double reach, d
   }
 }
 
+std::array<double, 3> GridField::position(const std::array<std::int64_t, 3>& ijk) const {
+  double local[3];
+  for (int a = 0; a < 3; ++a) local[a] = h_ * static_cast<double>(ijk[a]) - offset_[a];
+  std::array<double, 3> p;
+  for (int r = 0; r < 3; ++r)
+    p[r] = centre_[r] + rot_[3 * r] * local[0] + rot_[3 * r + 1] * local[1] +
+           rot_[3 * r + 2] * local[2];
+  return p;
+}
+
+void GridField::clearing_values(const double* seg, std::size_t k, const double* bound,
+                                double* out) const {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t i = 0; i < k; ++i) {
+    const double* a = seg + 6 * i;
+    const double* b = a + 3;
+    const double mid[3] = {0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])};
+    out[i] = nan;
+    std::array<std::int64_t, 3> q;
+    if (!node(mid, q)) continue;
+    const auto x = position(q);
+    const double dm = std::sqrt((mid[0] - x[0]) * (mid[0] - x[0]) +
+                                (mid[1] - x[1]) * (mid[1] - x[1]) +
+                                (mid[2] - x[2]) * (mid[2] - x[2]));
+    const double half = 0.5 * std::sqrt((b[0] - a[0]) * (b[0] - a[0]) +
+                                        (b[1] - a[1]) * (b[1] - a[1]) +
+                                        (b[2] - a[2]) * (b[2] - a[2]));
+    const double v = values_[(q[0] * n_[1] + q[1]) * n_[2] + q[2]];
+    if (std::abs(v) > bound[i] * (dm + half)) out[i] = v;  // NaN v or bound: not cleared
+  }
+}
+
 }  // namespace rdmesh

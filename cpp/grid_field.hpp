@@ -30,12 +30,21 @@ class GridField {
   void segment_bounds(const double* seg, std::size_t k, double reach, double scale, double cap,
                       double* out) const;
 
+  // For k segments (a, b), 6 doubles each, with bounds L (k) on |grad f|,
+  // where this field holds f: the value v at the node q nearest a segment's
+  // middle when |v| > L * (|middle - q| + |b - a| / 2), so that no point of
+  // the segment, all within that distance of q, can have f = 0; NaN where
+  // not (or off the grid).
+  void clearing_values(const double* seg, std::size_t k, const double* bound, double* out) const;
+
   const std::vector<double>& values() const { return values_; }
   const std::array<std::int64_t, 3>& shape() const { return n_; }
 
  private:
   // p's nearest node, false off the grid.
   bool node(const double* p, std::array<std::int64_t, 3>& ijk) const;
+  // Where node ijk lies.
+  std::array<double, 3> position(const std::array<std::int64_t, 3>& ijk) const;
 
   std::vector<double> values_;
   std::array<std::int64_t, 3> n_;

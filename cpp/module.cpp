@@ -334,6 +334,31 @@ PYBIND11_MODULE(_rdt, m) {
           [](RestrictedDelaunay& self) {
             return locked(self, [&] { return self.number_of_samples(); });
           })
+      .def(
+          "set_clearing",
+          [](RestrictedDelaunay& self, const rdmesh::GridField& f, const rdmesh::GridField& slopes,
+             double scale, double reach, double cap) {
+            locked(self, [&] { self.set_clearing(f, slopes, scale, reach, cap); });
+          },
+          py::arg("f"), py::arg("slopes"), py::arg("scale"), py::arg("reach"), py::arg("cap"),
+          "Clear facets by the seeding grid (see rdmesh.sampling.screen): f, the grid's "
+          "f at its nodes; slopes, the local |grad f| estimates; a segment's bound is "
+          "min(cap, scale * slopes at its middle) up to reach long, cap beyond. A facet "
+          "whose segment the node nearest its middle clears is set KNOWN, not "
+          "restricted, and not handed out.")
+      .def(
+          "set_clearing_cap",
+          [](RestrictedDelaunay& self, double cap) {
+            if (!(cap > 0.0)) throw std::invalid_argument("cap must be > 0");
+            locked(self, [&] { self.set_clearing_cap(cap); });
+          },
+          py::arg("cap"), "The largest bound of set_clearing's (a raised estimate).")
+      .def_property_readonly(
+          "cleared_facets",
+          [](RestrictedDelaunay& self) {
+            return locked(self, [&] { return self.cleared_facets(); });
+          },
+          "Facets the grid cleared (see set_clearing), since construction.")
       .def_property_readonly(
           "reused_facets",
           [](RestrictedDelaunay& self) {

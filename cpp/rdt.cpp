@@ -493,6 +493,14 @@ ChangedFacets RestrictedDelaunay::changed_facets(
       const Vec3 a0 = a, b0 = b;
       if (!clip(a, b)) continue;
       if (old_side && reuse(c, i, nb, j, was, was_centre, a, b)) continue;
+      if (clear_f_ && cleared_by_grid(a, b)) {
+        // No crossing, as a clean search would have found: KNOWN, so that a
+        // shorter segment later keeps the status without a search.
+        c->info().flags[i] = nb->info().flags[j] = KNOWN;
+        c->info().centre[i] = nb->info().centre[j] = -1;
+        ++cleared_;
+        continue;
+      }
       fault_point_for_testing();
       std::sort(t.begin(), t.end());
       out.tri.insert(out.tri.end(), t.begin(), t.end());
@@ -553,6 +561,26 @@ bool RestrictedDelaunay::reuse(Cell_handle c, int i, Cell_handle nb, int j, std:
   c->info().centre[i] = idx;
   ++reused_;
   return true;
+}
+
+void RestrictedDelaunay::set_clearing(const GridField& f, const GridField& slopes, double scale,
+                                      double reach, double cap) {
+  if (!(scale > 0.0) || !(reach >= 0.0) || !(cap > 0.0) || !std::isfinite(scale) ||
+      !std::isfinite(reach))
+    throw std::invalid_argument("clearing needs scale > 0, reach >= 0 and cap > 0");
+  clear_f_ = std::make_unique<GridField>(f);
+  clear_slopes_ = std::make_unique<GridField>(slopes);
+  clear_scale_ = scale;
+  clear_reach_ = reach;
+  clear_cap_ = cap;
+}
+
+bool RestrictedDelaunay::cleared_by_grid(const Vec3& a, const Vec3& b) const {
+  const double seg[6] = {a[0], a[1], a[2], b[0], b[1], b[2]};
+  double bound, value;
+  clear_slopes_->segment_bounds(seg, 1, clear_reach_, clear_scale_, clear_cap_, &bound);
+  clear_f_->clearing_values(seg, 1, &bound, &value);
+  return !std::isnan(value);
 }
 
 void RestrictedDelaunay::withdraw_chunk(std::uint64_t serial) {

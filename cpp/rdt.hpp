@@ -21,6 +21,7 @@
 #include <cstdint>
 #include <deque>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <new>
 #include <vector>
@@ -33,6 +34,7 @@
 #include <CGAL/Triangulation_data_structure_3.h>
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
 
+#include "grid_field.hpp"
 #include "sampling.hpp"
 
 namespace rdmesh {
@@ -270,6 +272,20 @@ class RestrictedDelaunay {
   // Facets whose new status changed_facets derived from a KNOWN old one
   // instead of handing them out, since construction.
   std::uint64_t reused_facets() const { return reused_; }
+
+  // Clearing by the seeding grid (rdmesh.sampling.screen): f at the grid's
+  // nodes, the local |grad f| estimates, and how they bound |grad f| along a
+  // segment: scale x the estimate at its middle for segments up to reach
+  // long, at most cap (cap alone for longer ones).  A facet whose segment
+  // the node nearest its middle clears (GridField::clearing_values) is not
+  // handed out: it is set KNOWN and not restricted at once, like a reused
+  // one.  set_clearing_cap changes cap (a bound raised by what the
+  // segments showed).
+  void set_clearing(const GridField& f, const GridField& slopes, double scale, double reach,
+                    double cap);
+  void set_clearing_cap(double cap) { clear_cap_ = cap; }
+  // Facets cleared so, since construction.
+  std::uint64_t cleared_facets() const { return cleared_; }
   // Circumcentres computed exactly because the double one was not
   // equidistant from the cell's vertices (see circumcentre).
   std::uint64_t exact_circumcentres() const { return exact_circumcentres_; }
@@ -330,6 +346,11 @@ class RestrictedDelaunay {
   std::deque<Chunk> pending_;
   std::uint64_t serial_ = 0;  // chunks handed out so far
   std::uint64_t reused_ = 0;  // see reused_facets()
+  std::uint64_t cleared_ = 0;  // see cleared_facets()
+  std::unique_ptr<GridField> clear_f_, clear_slopes_;
+  double clear_scale_ = 0.0, clear_reach_ = 0.0, clear_cap_ = 0.0;
+  // Whether the grid clears segment a -> b (set_clearing).
+  bool cleared_by_grid(const std::array<double, 3>& a, const std::array<double, 3>& b) const;
   std::uint64_t exact_circumcentres_ = 0;  // see exact_circumcentres()
   mutable std::mutex mutex_;
   std::vector<Vertex_handle> round_vertices_;  // inserted before this round

@@ -387,7 +387,7 @@ def test_worker_pool_lives_as_long_as_the_pipeline(monkeypatch):
     monkeypatch.setattr(pipeline, "ThreadPoolExecutor", Counted)
     monkeypatch.setattr(pipeline, "CHUNK", 256)  # several chunks a round
     monkeypatch.setattr(pipeline, "CORE_CHUNK", 256)
-    m = rdmesh.mesh_surface(SURFACES["sphere"].make(), radius_bound=0.15, workers=2)
+    m = rdmesh.mesh_surface(SURFACES["sphere"].make(), radius_bound=0.07, workers=2)
     assert m.stats["rounds"] >= 2 and m.stats["facets_evaluated"] > 10 * 256
     # The core's job thread and the evaluation pool, both stopped.
     assert [p._max_workers for p in pools] == [1, 2]

@@ -150,6 +150,30 @@ def test_node_slopes_of_a_linear_function():
     assert np.isinf(node_slopes(values, h)[2, 3, 4])
 
 
+def test_grid_clears_segments_only_where_the_bound_forbids_a_zero():
+    # f = x on a unit grid: a segment whose middle's node has |f| = 5 and
+    # lies within 1 of it is cleared with |grad f| <= 1 (5 > 1 x 1), not
+    # with a bound of 10, nor near x = 0.
+    ax = np.arange(11.0) - 5.0
+    x = np.meshgrid(ax, ax, ax, indexing="ij")[0]
+    g = core.GridField(x, np.zeros(3), np.eye(3), np.full(3, 5.0), 1.0)
+    seg = np.array([
+        [[4.6, 0.0, 0.0], [5.0, 0.5, 0.0]],
+        [[4.6, 0.0, 0.0], [5.0, 0.5, 0.0]],
+        [[-0.2, 0.0, 0.0], [0.2, 0.0, 0.0]],
+        [[40.0, 0.0, 0.0], [41.0, 0.0, 0.0]],
+    ])  # fmt: skip
+    v = g.clearing_values(seg, np.array([1.0, 10.0, 1.0, 1.0]))
+    assert v[0] == 5.0 and np.isnan(v[1:]).all()
+    with pytest.raises(ValueError, match="one entry per segment"):
+        g.clearing_values(seg, np.ones(3))
+    rdt = core.RestrictedDelaunay(np.zeros(3), 1.0)
+    with pytest.raises(ValueError, match="scale > 0"):
+        rdt.set_clearing(g, g, 0.0, 1.0, 1.0)
+    with pytest.raises(ValueError, match="cap must be"):
+        rdt.set_clearing_cap(-1.0)
+
+
 def test_grid_field_rejects_bad_input():
     with pytest.raises(ValueError, match="3-D"):
         core.GridField(np.zeros((4, 4)), np.zeros(3), np.eye(3), np.zeros(3), 1.0)
@@ -178,6 +202,8 @@ def test_mesh_unchanged_with_fewer_evaluations(monkeypatch):
         SURFACES["torus"].make(), radius_bound=0.08, distance_bound=0.008, workers=1
     )
     assert off.stats["slope_bound"] is None
+    # The grid cleared facets in the core (never handed out) only with the bound.
+    assert on.stats["facets_cleared"] > 0 == off.stats["facets_cleared"]
     np.testing.assert_array_equal(on.vertices, off.vertices)
     np.testing.assert_array_equal(on.faces, off.faces)
     assert on.stats["evaluations"] < off.stats["evaluations"]

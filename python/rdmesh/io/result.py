@@ -36,13 +36,11 @@ class SurfaceMesh:
         (the power distance ``sqrt(d^2 - w)`` to a protecting ball's centre).
     stats : dict
         Run statistics: ``seconds``, ``rounds``, ``vertices``, ``faces``,
-        ``evaluations`` (points at which ``f`` was evaluated),
-        ``segment_queries`` (dual segments whose crossings a closed mesh gave
-        exactly, instead of samples of ``f``), ``slope_bound`` (the bound on
-        ``|grad f|`` that let dual segments go unsampled: ``value``, whether
-        ``proven``; None without one), ``inserted`` per
-        stage, ``unresolved``, ``phase_seconds`` and more. ``phase_seconds``
-        adds up the wall time of each phase of the main thread; its
+        ``evaluations`` (points at which ``f`` was evaluated), ``segment_queries``
+        (dual segments whose crossings a closed mesh gave exactly), ``slope_bound``
+        and ``facets_cleared`` (:mod:`rdmesh.sampling.screen`), ``inserted`` per
+        stage, ``unresolved``, ``phase_seconds`` and more. ``phase_seconds`` adds
+        up the wall time of each phase of the main thread; its
         ``core_changed_facets`` and ``core_update_facets`` are the core
         thread's busy time, which overlaps them.
     complete : bool

@@ -28,7 +28,7 @@ from ..io.result import SurfaceMesh
 from ..sampling.boundary import BoundaryCurve, guard_boundary
 from ..sampling.domain import clip_box
 from ..sampling.grid import check_sphere_near
-from ..sampling.screen import slope_bound
+from ..sampling.screen import clear_in_core, slope_bound
 from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.loops import LoopMemo
@@ -253,6 +253,7 @@ def _attempt(m: Mesher, t0: float, evals0: int, ivals0: int, shrink: list) -> Su
         )  # fmt: skip
     m.plan = plan
     m.pipeline.slope = slope_bound(m.surface, plan.slopes)
+    clear_in_core(m.rdt, m.pipeline.slope)
     seeds, stop = plan.seeds, None
     cap = m.budget.max_vertices
     if cap is not None and len(seeds) > cap:
@@ -423,6 +424,7 @@ def _result(
         inserted=dict(m.samples.inserted),
         facets_evaluated=m.pipeline.evaluated,
         facets_reused=m.pipeline.rdt.reused_facets,
+        facets_cleared=m.pipeline.rdt.cleared_facets,
         slope_bound=_slope_stats(m.pipeline.slope),
         exact_circumcentres=m.pipeline.rdt.exact_circumcentres,
         phase_seconds={k: round(v, 4) for k, v in timing.items()},

@@ -204,7 +204,10 @@ def _chunk_flags(p: FacetPipeline, vertices, tri, seg, end_f, rho, samples, boun
         p.failed += sum(work(sl) for sl in slices)
     if p.slope is not None:
         # After the whole chunk: the same bounds for any number of workers.
+        was = p.slope.value
         p.slope.observe(seg, steep, bound)
+        if p.slope.value > was and p.slope.field is not None:
+            p.rdt.set_clearing_cap(p.slope.value)
     return flags, centres
 
 

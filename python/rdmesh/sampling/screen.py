@@ -16,7 +16,12 @@ The result then rests on that estimate: a steeper place than the grid and the
 segments saw can hide a pair of crossings, as one between samples can.
 Halving the other segments by the same rule found no further samples to skip
 on the public surfaces (torus 41.1 against 41.3 samples per vertex), so they
-are not halved."""
+are not halved.
+
+Most dual segments lie far from the surface. The core clears those before
+handing them out (:func:`clear_in_core`): a segment within distance ``D`` of a
+grid node where ``|f| > L D`` has no zero, so its facet is not restricted, and
+neither its ends nor its samples are evaluated."""
 
 from __future__ import annotations
 
@@ -63,6 +68,9 @@ class SlopeField:
         near = ndimage.maximum_filter(node, size=2 * FIELD_CELLS + 1, mode="nearest")
         self.h = float(h)
         self.grid = core.GridField(near, centre, rotation, offset, h)
+        #: f itself at the nodes: the core clears the segments near a node
+        #: whose |f| the bound cannot bring to 0 (``set_clearing``).
+        self.values = core.GridField(values, centre, rotation, offset, h)
 
     def at(self, points: np.ndarray) -> np.ndarray:
         """The local slope at each point; inf off the grid."""
@@ -107,6 +115,16 @@ class SlopeBound:
             self.field.grid.raise_to(mid, steep[over], FIELD_CELLS)
 
 
+def clear_in_core(rdt: core.RestrictedDelaunay, bound: SlopeBound | None) -> None:
+    """Let the core clear, without handing them out, the facets whose
+    segment lies near a grid node with ``|f|`` above the bound times the
+    node's distance to every point of it (estimated bounds only: a proven
+    one comes without a grid)."""
+    if bound is not None and bound.field is not None:
+        field = bound.field
+        rdt.set_clearing(field.values, field.grid, SAFETY, REACH * field.h, bound.value)
+
+
 def slope_bound(surface: ImplicitSurface, field: SlopeField | None) -> SlopeBound | None:
     """The surface's proven bound, else estimates from the seeding grid
     (None when it measured nothing)."""
@@ -147,7 +165,7 @@ def ruled_out(ends: np.ndarray, length: np.ndarray, bound: np.ndarray | float) -
 
 def end_slopes(ends: np.ndarray, length: np.ndarray, radius: float) -> np.ndarray:
     """``|f(b) - f(a)| / |b - a|`` of each segment (0 below ``MIN_STEP`` R)."""
-    ok = length > MIN_STEP * radius
     out = np.zeros(len(length))
-    out[ok] = np.abs(ends[ok, 1] - ends[ok, 0]) / length[ok]
-    return out
+    return np.divide(
+        np.abs(ends[:, 1] - ends[:, 0]), length, out=out, where=length > MIN_STEP * radius
+    )
