@@ -139,6 +139,10 @@ class FacetPipeline:
         # (evaluate_facets asks for their samples).
         exact = getattr(self.surface, "exact_crossings", None) is not None
         sampling = NO_SAMPLES if exact or self.slope is not None else SAMPLING
+        if self.slope is not None and self.slope.field is not None:
+            # A bound raised last round reaches the core now, while its worker
+            # is idle: a change during a round would race the next chunk.
+            rdt.set_clearing_cap(self.slope.value)
         job = self._worker.submit(changed, FIRST_CHUNK, **sampling)
         last_f = None  # f at the previous chunk's ends
         while True:
@@ -204,10 +208,7 @@ def _chunk_flags(p: FacetPipeline, vertices, tri, seg, end_f, rho, samples, boun
         p.failed += sum(work(sl) for sl in slices)
     if p.slope is not None:
         # After the whole chunk: the same bounds for any number of workers.
-        was = p.slope.value
         p.slope.observe(seg, steep, bound)
-        if p.slope.value > was and p.slope.field is not None:
-            p.rdt.set_clearing_cap(p.slope.value)
     return flags, centres
 
 
