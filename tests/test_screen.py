@@ -216,3 +216,40 @@ def _cube_mesh():
          [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
     )  # fmt: skip
     return v, f
+
+
+def test_cos_by_slope_lower_bounds_the_cosine():
+    from rdmesh.refine.facets import _cos_by_slope
+
+    rng = np.random.default_rng(7)
+    n = rng.normal(size=(200, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    u = rng.normal(size=(200, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    u[:20] = np.cross(n[:20], u[:20])  # tangent to the sphere there
+    u[:20] /= np.linalg.norm(u[:20], axis=1)[:, None]
+    bound = np.full(200, 2.0)  # |grad f| = 1 <= 2
+    cos = _cos_by_slope(SPHERE, n, u, bound)
+    true = np.abs(np.einsum("ij,ij->i", n, u))
+    shown = ~np.isnan(cos)
+    assert np.isnan(cos[:20]).all() and shown.sum() > 150
+    np.testing.assert_allclose(cos[shown], true[shown] / 2.0, atol=1e-6)
+
+
+def test_f_alone_mesh_unchanged_with_fewer_gradients(monkeypatch):
+    """Crossings shown transversal by the derivative along the segment skip the
+    central-difference gradient: the same mesh, fewer evaluations."""
+    from rdmesh.refine import facets
+
+    base = SURFACES["torus"].make()
+
+    def run():
+        s = rdmesh.ImplicitSurface(base.f, base.bounding_sphere)
+        return rdmesh.mesh_surface(s, radius_bound=0.08, distance_bound=0.008)
+
+    on = run()
+    monkeypatch.setattr(facets, "_cos_by_slope", lambda s, p, u, b: np.full(len(p), np.nan))
+    off = run()
+    np.testing.assert_array_equal(on.vertices, off.vertices)
+    np.testing.assert_array_equal(on.faces, off.faces)
+    assert on.stats["evaluations"] < off.stats["evaluations"]

@@ -16,6 +16,7 @@ import numpy as np
 from .. import core
 from .._errors import OracleError
 from .._tol import (
+    GRADIENT_STEP,
     MAX_INTERVALS,
     MIN_INTERVALS,
     ROOT_ATOL,
@@ -192,6 +193,12 @@ def evaluate_facets(
     out.outward[rows] = cr.rising[pick]
     cos = cos[pick]
     trusted = np.ones(len(pick), bool)
+    if surface.gradient is None and slope is not None:
+        # Central differences of f cost six evaluations; the derivative along
+        # the segment two, and it shows most crossings transversal.
+        idx = np.flatnonzero(np.isnan(cos))
+        if len(idx):
+            cos[idx] = _cos_by_slope(surface, cr.point[pick[idx]], u[rows[idx]], slope[rows[idx]])
     ask = np.flatnonzero(np.isnan(cos))
     if len(ask):
         g = surface.grad(cr.point[pick[ask]])
@@ -255,6 +262,20 @@ def _all_samples(surface, seg, u, end_values, samples):
         interior_values = surface(samples.interior)
     xatol = ROOT_ATOL * surface.radius
     return line_crossings(surface, seg[:, 0], u, flat, xatol, interior_values, end_values)
+
+
+def _cos_by_slope(surface, points, u, bound):
+    """At crossings ``points`` of segments along ``u``: ``|f'(x; u)| / L``
+    (a central difference, two evaluations), a lower bound on ``|cos|``
+    between ``u`` and the gradient wherever ``|grad f| <= L`` (``bound``);
+    NaN where that does not show the crossing transversal (then the gradient
+    decides)."""
+    h = GRADIENT_STEP * surface.radius
+    v = surface(np.concatenate([points + h * u, points - h * u])).reshape(2, -1)
+    cos = np.full(len(points), np.nan)
+    ok = np.isfinite(bound) & (bound > 0)
+    cos[ok] = np.abs(v[0, ok] - v[1, ok]) / (2.0 * h * bound[ok])
+    return np.where(cos >= TANGENCY_COS, cos, np.nan)
 
 
 #: Crossings with a zero or non-finite gradient: a few are singular points of
