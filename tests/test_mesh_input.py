@@ -229,7 +229,8 @@ def test_remeshing_uses_exact_crossings_and_keeps_the_topology(monkeypatch):
         assert m.is_closed_manifold() and m.complete
         assert m.min_angle >= 30.0 - 1e-6
     assert exact.topology() == sampled.topology()
-    assert exact.stats["evaluations"] < 0.5 * sampled.stats["evaluations"]
+    # The sampled run also skips the segments that the bound 1 clears.
+    assert exact.stats["evaluations"] < 0.6 * sampled.stats["evaluations"]
     # The vertices lie on the input mesh.
     assert np.abs(surface.signed_distance(exact.vertices)).max() < 1e-9 * surface.radius
 

@@ -252,14 +252,23 @@ def _sampled_crossings(surface, seg, apex, rho, u, end_values=None, samples=None
 
 
 def _all_samples(surface, seg, u, end_values, samples):
-    """The crossings from every sample of each segment (``f`` at the ends when known)."""
+    """The crossings from every sample of each segment (``f`` at the ends when known).
+
+    The interior samples are placed as the root search places its points
+    (start + s u, in numpy), so that ``f`` there is what the search would
+    find, and it can take those values instead of evaluating again."""
     flat = SegmentSamples(samples.offsets, samples.s)
+    n = np.diff(samples.offsets) - 2
+    owner = np.repeat(np.arange(len(seg)), n)
+    inner = np.ones(len(samples.s), bool)
+    inner[samples.offsets[:-1]] = inner[samples.offsets[1:] - 1] = False
+    points = seg[owner, 0] + samples.s[inner][:, None] * u[owner]
     if end_values is None:
-        v = surface(np.concatenate([samples.interior, seg[:, 0], seg[:, 1]]))
-        interior_values = v[: len(samples.interior)]
-        end_values = v[len(samples.interior) :].reshape(2, len(seg)).T
+        v = surface(np.concatenate([points, seg[:, 0], seg[:, 1]]))
+        interior_values = v[: len(points)]
+        end_values = v[len(points) :].reshape(2, len(seg)).T
     else:
-        interior_values = surface(samples.interior)
+        interior_values = surface(points)
     xatol = ROOT_ATOL * surface.radius
     return line_crossings(surface, seg[:, 0], u, flat, xatol, interior_values, end_values)
 

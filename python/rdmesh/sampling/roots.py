@@ -139,6 +139,11 @@ def line_crossings(
             f_lo, f_hi = (np.r_[v, np.full(len(found[0]), np.nan)] for v in (f_lo, f_hi))
     if seg.size == 0:
         return _empty()
+    # f at a segment's far end was taken at that end, which the search's
+    # start + s u misses by a rounding: evaluated again there, so that the
+    # search sees one function.
+    last = samples.s[samples.offsets[1:] - 1]
+    f_hi = np.where(hi == last[seg], np.nan, f_hi)
     root, ok = refine_brackets(surface, origin[seg], direction[seg], lo, hi, xatol, (f_lo, f_hi))
     failed = np.unique(seg[~ok])
     seg, root, rising = seg[ok], root[ok], rising[ok]
