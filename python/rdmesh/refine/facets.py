@@ -146,7 +146,9 @@ def evaluate_facets(
     u = d / np.where(length > 0, length, 1.0)[:, None]
     exact = getattr(surface, "exact_crossings", None)
     if exact is None:
-        cr, out.steep = _sampled_crossings(surface, seg, apex, rho, u, end_values, samples, slope)
+        cr, out.steep = _sampled_crossings(
+            surface, seg, apex, rho, u, end_values, samples, slope, length
+        )
         cos = np.full(len(cr.segment), np.nan)
     else:
         *found, cos, unsure = exact(seg)
@@ -156,7 +158,7 @@ def evaluate_facets(
         if len(again):
             more, out.steep[again] = _sampled_crossings(
                 surface, seg[again], apex[again], rho[again], u[again],
-                slope=None if slope is None else slope[again],
+                slope=None if slope is None else slope[again], length=length[again],
             )  # fmt: skip
             more.segment, more.failed = again[more.segment], again[more.failed]
             order = np.argsort(np.r_[cr.segment, more.segment], kind="stable")
@@ -220,7 +222,9 @@ def evaluate_facets(
     return out
 
 
-def _sampled_crossings(surface, seg, apex, rho, u, end_values=None, samples=None, slope=None):
+def _sampled_crossings(
+    surface, seg, apex, rho, u, end_values=None, samples=None, slope=None, length=None
+):
     """Every crossing of the segments ``seg`` (unit directions ``u``) from
     samples of ``f`` and root searches (``Crossings.failed``: segments whose
     search failed), and the slope of ``f`` between each segment's ends; ``f``
@@ -235,7 +239,8 @@ def _sampled_crossings(surface, seg, apex, rho, u, end_values=None, samples=None
         return _all_samples(surface, seg, u, end_values, samples), np.zeros(k)
     if end_values is None:
         end_values = surface(np.concatenate([seg[:, 0], seg[:, 1]])).reshape(2, k).T
-    length = row_norms(seg[:, 1] - seg[:, 0])
+    if length is None:  # the caller's segment lengths, when it has them
+        length = row_norms(seg[:, 1] - seg[:, 0])
     steep = end_slopes(end_values, length, surface.radius)
     rows = np.flatnonzero(~ruled_out(end_values, length, slope))
     if len(rows) == 0:
