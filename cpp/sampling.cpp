@@ -14,9 +14,12 @@ void SegmentSamples::reserve(std::size_t segments, std::size_t per_segment) {
 void SegmentSamples::add(const double* a, const double* b, const double* apex,
                          double rho, const SegmentSampling& spec) {
   const double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-  const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-  const double inv = len > 0.0 ? 1.0 / len : 0.0;
-  const double u[3] = {d[0] * inv, d[1] * inv, d[2] * inv};
+  // The order of operations of rdmesh._vectors.segment_directions, without
+  // fused multiply-adds (CMakeLists.txt): the interior points a + s u then
+  // have the bits of numpy's, where the root search evaluates f.
+  const double len = std::sqrt((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]);
+  const double div = len > 0.0 ? len : 1.0;
+  const double u[3] = {d[0] / div, d[1] / div, d[2] / div};
   if (!(rho > 0.0) || !std::isfinite(rho)) rho = std::max(len, 1e-300);
   // Signed distance of the start from the facet's circumcentre along u.
   const double sigma0 = u[0] * (a[0] - apex[0]) + u[1] * (a[1] - apex[1]) +

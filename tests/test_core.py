@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from meshcheck import face_normals
 from rdmesh._geometry import circumradii
+from rdmesh._vectors import segment_directions
 from rdmesh.core import BAD, KNOWN, OUTWARD, RESTRICTED, _rdt
 from rdmesh.refine.criteria import FacetCriteria
 from rdmesh.refine.facets import DualSamples, evaluate_facets
@@ -498,6 +499,33 @@ def test_sample_segments_layout_and_spacing():
     same = seg_of[1:] == seg_of[:-1]
     near_ball = np.minimum(ball[1:], ball[:-1])[same]
     assert np.all(gap[same] <= 0.5 * np.exp(0.5) * near_ball * (1 + 1e-9))
+
+
+def test_sample_points_have_the_bits_of_numpys():
+    """The core's interior points are start + s u with u from
+    segment_directions, bit for bit: the root search evaluates f at those
+    points and takes the samples' values for them. Segments from 1e-9 to 1e4
+    long, some with a zero coordinate, and one of zero length."""
+    rng = np.random.default_rng(3)
+    k = 3000
+    start = rng.normal(size=(k, 3)) * 10.0 ** rng.uniform(-3, 3, (k, 1))
+    d = rng.normal(size=(k, 3)) * 10.0 ** rng.uniform(-9, 4, (k, 1))
+    d[::7, 1] = 0.0
+    d[0] = 0.0
+    seg = np.stack([start, start + d], axis=1)
+    size = np.abs(d).max(axis=1) + 1e-12
+    apex = start + rng.normal(size=(k, 3)) * size[:, None]
+    rho = 0.05 * size
+    offsets, s, interior = _rdt.sample_segments(seg, apex, rho)
+    length, u = segment_directions(seg[:, 1] - seg[:, 0])
+    counts = np.diff(offsets)
+    owner = np.repeat(np.arange(k), counts - 2)
+    inner = np.ones(len(s), bool)
+    inner[offsets[:-1]] = inner[offsets[1:] - 1] = False
+    expected = seg[owner, 0] + s[inner][:, None] * u[owner]
+    assert len(interior) > 3 * k
+    assert np.array_equal(interior, expected)
+    assert np.array_equal(s[offsets[1:] - 1], length)
 
 
 @pytest.mark.parametrize(

@@ -11,6 +11,15 @@ def row_norms(v: np.ndarray) -> np.ndarray:
     return np.hypot(np.hypot(v[:, 0], v[:, 1]), v[:, 2])
 
 
+def segment_directions(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Length and unit direction of each row of ``(n, 3)`` ``d`` (zero rows
+    stay zero), in the core's order of operations (``cpp/sampling.cpp``):
+    ``sqrt((x*x + y*y) + z*z)`` and ``d / length``. So ``start + s * u`` has
+    the same bits here and in the core's sample points."""
+    length = np.sqrt((d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]) + d[:, 2] * d[:, 2])
+    return length, d / np.where(length > 0, length, 1.0)[:, None]
+
+
 def unit_rows(v: np.ndarray) -> np.ndarray:
     """Each row of ``(n, 3)`` ``v`` scaled to unit length; zero rows where the
     norm is zero or not finite."""

@@ -23,7 +23,7 @@ from .._tol import (
     SAMPLES_PER_RADIUS,
     TANGENCY_COS,
 )
-from .._vectors import row_norms
+from .._vectors import row_norms, segment_directions
 from ..sampling.roots import Crossings, SegmentSamples, line_crossings
 from ..sampling.screen import end_slopes, ruled_out
 from ..surfaces.oracle import ImplicitSurface
@@ -141,9 +141,7 @@ def evaluate_facets(
     if k == 0:
         return out
     start = seg[:, 0]
-    d = seg[:, 1] - start
-    length = np.sqrt(np.einsum("ij,ij->i", d, d))
-    u = d / np.where(length > 0, length, 1.0)[:, None]
+    length, u = segment_directions(seg[:, 1] - start)
     exact = getattr(surface, "exact_crossings", None)
     if exact is None:
         cr, out.steep = _sampled_crossings(
@@ -259,15 +257,12 @@ def _sampled_crossings(
 def _all_samples(surface, seg, u, end_values, samples):
     """The crossings from every sample of each segment (``f`` at the ends when known).
 
-    The interior samples are placed as the root search places its points
-    (start + s u, in numpy), so that ``f`` there is what the search would
-    find, and it can take those values instead of evaluating again."""
+    The core places the interior samples as the root search places its points
+    (start + s u, with ``u`` from :func:`segment_directions`, bit for bit), so
+    ``f`` there is what the search would find, and it takes those values
+    instead of evaluating again."""
     flat = SegmentSamples(samples.offsets, samples.s)
-    n = np.diff(samples.offsets) - 2
-    owner = np.repeat(np.arange(len(seg)), n)
-    inner = np.ones(len(samples.s), bool)
-    inner[samples.offsets[:-1]] = inner[samples.offsets[1:] - 1] = False
-    points = seg[owner, 0] + samples.s[inner][:, None] * u[owner]
+    points = samples.interior
     if end_values is None:
         v = surface(np.concatenate([points, seg[:, 0], seg[:, 1]]))
         interior_values = v[: len(points)]
