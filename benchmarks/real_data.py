@@ -232,6 +232,8 @@ def run_rdmesh_remesh(ref, r: float) -> dict:
             m.stats.get("segment_queries", 0) / max(len(m.vertices), 1), 1
         ),
         "note": note or m.stats.get("stop_reason", ""),
+        # The distance bound measured both ways (rdmesh.refine.deviation).
+        "distance_check": m.stats.get("distance_check"),
     }
 
 

@@ -37,9 +37,9 @@ class SurfaceMesh:
     stats : dict
         Run statistics: ``seconds``, ``rounds``, ``vertices``, ``faces``,
         ``evaluations`` (points at which ``f`` was evaluated), ``segment_queries``
-        (dual segments whose crossings a closed mesh gave exactly), ``slope_bound``
-        and ``facets_cleared`` (:mod:`rdmesh.sampling.screen`), ``inserted`` per
-        stage, ``unresolved``, ``phase_seconds`` and more. ``phase_seconds`` adds
+        (exact crossings of a closed mesh), ``slope_bound`` and ``facets_cleared``
+        (:mod:`rdmesh.sampling.screen`), ``distance_check`` (:mod:`rdmesh.refine.deviation`),
+        ``inserted`` per stage, ``unresolved``, ``phase_seconds`` and more. ``phase_seconds`` adds
         up the wall time of each phase of the main thread; its
         ``core_changed_facets`` and ``core_update_facets`` are the core
         thread's busy time, which overlaps them.

@@ -35,6 +35,7 @@ from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
 from .check import check_restricted
 from .criteria import FacetCriteria
+from .deviation import DeviationStage
 from .floor import SpacingFloor
 from .methods import METHODS, Plan, boundary_sizing
 from .phases import Phases
@@ -288,6 +289,16 @@ def _slope_stats(bound) -> dict | None:
     return {"value": bound.value, "proven": bound.proven}
 
 
+def _distance_stats(plan: Plan) -> dict | None:
+    """What ``stats["distance_check"]`` says of the check against a closed
+    input mesh (:mod:`rdmesh.refine.deviation`), None without one."""
+    for phase in plan.phases:
+        for stage in phase:
+            if isinstance(stage, DeviationStage):
+                return stage.stats()
+    return None
+
+
 def _boundary_placer(m: Mesher, plan: Plan):
     """Without protecting balls, the boundary guard of a clipped surface
     (:func:`onto_curve`), else None."""
@@ -426,6 +437,7 @@ def _result(
         facets_reused=m.pipeline.rdt.reused_facets,
         facets_cleared=m.pipeline.rdt.cleared_facets,
         slope_bound=_slope_stats(m.pipeline.slope),
+        distance_check=_distance_stats(plan),
         exact_circumcentres=m.pipeline.rdt.exact_circumcentres,
         phase_seconds={k: round(v, 4) for k, v in timing.items()},
         unresolved=len(mesh.unresolved),

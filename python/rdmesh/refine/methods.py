@@ -37,6 +37,7 @@ from ..surfaces.oracle import ImplicitSurface
 from ..surfaces.volume import VolumeSurface
 from ..topology.tests import CELL_NORMAL_ANGLE, PROBE_TARGET, TESTS
 from .criteria import FacetCriteria, Sizing
+from .deviation import deviation_stage
 from .feature_curves import check_on_surface, feature_graph, has_given_curves
 from .stages import FacetStage, Stage, TestStage
 
@@ -164,6 +165,7 @@ def boissonnat_oudot(
             TestStage("vertex", "disk"),
         ]
     stages.append(TestStage("isolated", "isolated"))
+    stages += _deviation(surface, criteria, balls)
     if certify:
         stages += [TestStage(k, k, only_if_clean=True) for k in PROVEN_TESTS]
     return Plan(
@@ -179,6 +181,12 @@ def boissonnat_oudot(
         balls_given=given is not None,
         slopes=scan.slopes,
     )
+
+
+def _deviation(surface: ImplicitSurface, criteria: FacetCriteria, balls=None) -> list[Stage]:
+    """The distance check against a closed input mesh, when there is a bound."""
+    stage = deviation_stage(surface, criteria.distance_bound, balls)
+    return [] if stage is None else [stage]
 
 
 def _protect(surface, criteria, graph, scan, edge_size, shrink) -> Balls:
@@ -270,6 +278,7 @@ def topological_ball(
         FacetStage("voronoi_edge", core.TOPO, True),
         FacetStage("facet", core.BAD, False),
         *tests(TESTS[1:]),
+        *_deviation(surface, criteria),
     ]
     if certify:
         geometric += [TestStage(k, k, only_if_clean=True) for k in PROVEN_TESTS]

@@ -140,19 +140,21 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     facet's circumcentre is within the distance bound of its surface centre,
     every vertex lies on the input (to rounding, or the root tolerance where
     sampled), and every output triangle lies in a surface Delaunay ball
-    centred on the input, so it is within the size bound of the input. That
-    the output is within that distance of every part of the input, and keeps
-    its topology, is sampled, not proven: it holds when the size bound is below the feature size of
-    the shape the mesh approximates (scans, organic shapes). Sharp creases
+    centred on the input, so it is within the size bound of the input.
+    **Both ways** (closed input, nothing unresolved): the input's vertices and
+    creased edges and the output's edge midpoints are measured against the
+    other surface, and input points beyond the distance bound inserted once
+    (``stats["distance_check"]``). Keeping the input's topology is sampled, not
+    proven: it holds when the size bound is below the feature size of the
+    shape the mesh approximates (scans, organic shapes). Sharp creases
     (CAD models) are kept through ``feature_angle``: each sharp-edge chain is
     covered by protecting balls centred on the input's own edges (the output
     has a vertex at every corner and edges along every chain;
-    ``SurfaceMesh.features`` reports the check). Flatter creases come out
-    chamfered, by about the distance bound. Razor-thin wedges (two faces
-    folded onto each other, as when noise flips a sliver) have no feature
-    size: where the bounds resolve them, refinement points fall below the
-    spacing floor and are refused; the mesh is then returned with
-    ``complete=False`` (or the vertex budget runs out) and may not be closed.
+    ``SurfaceMesh.features`` reports the check). Razor-thin wedges (two
+    faces folded onto each other, as noise flips a sliver) have no feature
+    size: refinement points there fall below the spacing floor and are
+    refused, and the mesh comes back with ``complete=False`` (or at the
+    vertex budget), perhaps not closed.
     """
 
     def __init__(

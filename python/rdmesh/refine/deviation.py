@@ -1,0 +1,222 @@
+"""The distance bound measured between the output and a closed input mesh, both ways.
+
+The facet stage applies CGAL's distance criterion: one point per facet, its
+circumcentre against the centre of its surface Delaunay ball. On a mesh
+input the surface is piecewise flat, and its edges are small creases: an
+output edge can cut across one, and an input vertex can stand out of the
+output, farther than the bound, while every facet passes that test.
+
+A mesh input knows its surface exactly (closest points from CGAL's AABB
+tree), so once every other stage is satisfied, :class:`DeviationStage`
+measures where the deviation is largest on piecewise-flat surfaces: from each
+input vertex to the output, and from each output edge's midpoint and facet's
+centroid to the input. Where one is farther than the distance bound, it
+proposes the point of the input there (the input vertex itself, or the point
+of the input closest to the output's point): both lie on the surface, and
+both are farther than the bound from the output, so from every sample, which
+bounds how many it can add. These are points checked, not every point of
+either surface: the stage narrows the two-sided Hausdorff distance, it does
+not prove a bound on it.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import core
+from .._vectors import row_index, unit_rows
+from ..topology import Snapshot
+from ..topology.complex import distinct_edges
+from .stages import Candidates
+
+log = logging.getLogger("rdmesh")
+
+#: Points of the input closer than this times the bound to a sample are not
+#: proposed (they could not move the output by much; they are counted as left).
+MIN_GAP = 0.5
+#: Points along the input's creased edges are measured this many distance
+#: bounds apart (about the radius bound at the usual ratio), and at least at
+#: each edge's midpoint. Two bounds apart measured 4 times as many points on
+#: the bone benchmark input, for a few percent less Hausdorff distance.
+EDGE_SPACING = 10.0
+#: Points within this times a protecting ball's radius of its centre are not
+#: proposed. Within one radius the ball would hide them; within a few, they
+#: would make triangles with the ball's vertex, where the angle bound is
+#: relaxed (as in Mesh_3): 2 radii let 21-degree angles through on the
+#: genus-2 benchmark solid, 4 did not.
+BALL_CLEARANCE = 4.0
+
+
+@dataclass
+class DeviationStage:
+    """Input vertices and output edge midpoints and centroids farther apart
+    than ``bound`` (see the module's docstring).
+
+    ``surface`` is a closed :class:`~rdmesh.MeshSurface` (its ``vertices``
+    and ``closest_points``); ``balls`` the protecting balls, if any.
+
+    After the first check, only what changed is measured again: the input is
+    fixed, so an output edge or facet found within the bound stays so, and an
+    input vertex's distance can grow only where its nearest facet is gone.
+    """
+
+    surface: object
+    bound: float
+    balls: object = None
+    name: str = "distance"
+    #: Checks that may propose points; the one after them only measures.
+    rounds: int = 1
+    #: Asked only when no earlier stage left anything unresolved: an
+    #: incomplete run's distance is not the point (see Phases.ask).
+    only_if_clean: bool = True
+    #: What the checks found (``SurfaceMesh.stats["distance_check"]``).
+    checks: int = 0
+    proposed: int = 0
+    left: int = 0
+    largest: float = 0.0
+    #: The input's points measured: its vertices, and points along its creased edges.
+    _probes: np.ndarray = field(init=False, repr=False)
+    _free: np.ndarray = field(init=False, repr=False)
+    #: Output edges (sorted vertex ids) found within the bound.
+    _ok_edges: np.ndarray = field(init=False, repr=False)
+    #: The output's facets at the last check; each input vertex's distance
+    #: to it and its nearest facet there.
+    _tri: np.ndarray | None = field(default=None, init=False, repr=False)
+    _d_in: np.ndarray = field(init=False, repr=False)
+    _near: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self._probes = input_probes(
+            self.surface.vertices, self.surface.faces, EDGE_SPACING * self.bound
+        )
+        n = len(self._probes)
+        # Input points next to a protecting ball are never proposed.
+        self._free = np.ones(n, bool)
+        if self.balls is not None and len(self.balls):
+            self._free = ~self.balls.inside(self._probes, BALL_CLEARANCE)
+        self._ok_edges = np.zeros((0, 2), np.int64)
+        self._d_in = np.full(n, np.inf)
+        self._near = np.full((n, 3), -1, np.int64)
+
+    def candidates(self, snap: Snapshot) -> Candidates:
+        self.checks += 1
+        tri = np.sort(snap.facets(0)[0], axis=1)
+        V = snap.vertices
+        if len(tri) == 0:
+            return _none(self.name)
+        d_out, near = self._output_to_input(V, tri)
+        d_in = self._input_to_output(V, tri)
+        self.largest = float(max(d_in.max(initial=0.0), d_out.max(initial=0.0)))
+        far_in = d_in > self.bound
+        far_out = d_out > self.bound
+        points = np.concatenate([self._probes[far_in & self._free], near[far_out]])
+        over = int(far_in.sum() + far_out.sum())
+        if len(points) == 0 or self.checks > self.rounds:
+            self.left = over
+            return _none(self.name)
+        gap = snap.tree.query(points)[0]
+        keep = gap >= MIN_GAP * self.bound
+        if self.balls is not None and len(self.balls):
+            keep &= ~self.balls.inside(points, BALL_CLEARANCE)
+        points, gap = points[keep], gap[keep]
+        self.proposed += len(points)
+        self.left = over - len(points)
+        log.debug(
+            "distance check %d: %d input vertices, %d output points beyond %.3g; %d proposed",
+            self.checks, int(far_in.sum()), int(far_out.sum()), self.bound, len(points),
+        )  # fmt: skip
+        return Candidates(self.name, points, gap, False, over)
+
+    def _output_to_input(self, V: np.ndarray, tri: np.ndarray):
+        """Distances to the input from the midpoints of the output's edges and
+        the centroids of its facets not yet found within the bound, and the
+        input's closest points."""
+        keys, _ = distinct_edges(tri, len(V))
+        edges = np.stack([keys // len(V), keys % len(V)], axis=1)
+        edges = edges[row_index(edges, self._ok_edges) < 0]
+        if len(edges) == 0:
+            return np.zeros(0), np.zeros((0, 3))
+        probes = 0.5 * (V[edges[:, 0]] + V[edges[:, 1]])
+        near, _ = self.surface.closest_points(probes)
+        d = np.linalg.norm(probes - near, axis=1)
+        self._ok_edges = np.concatenate([self._ok_edges, edges[d <= self.bound]])
+        return d, near
+
+    def _input_to_output(self, V: np.ndarray, tri: np.ndarray) -> np.ndarray:
+        """Each input vertex's distance to the output (its last value where
+        its nearest facet is still there and it was within the bound)."""
+        again = np.ones(len(self._d_in), bool)
+        local = tri
+        if self._tri is not None:
+            again = (row_index(self._near, tri) < 0) | ((self._d_in > self.bound) & self._free)
+            # The nearest facet of a vertex whose own is gone is most likely
+            # among the facets that touch the new ones' vertices.
+            fresh = tri[row_index(tri, self._tri) < 0]
+            touched = np.zeros(len(V), bool)
+            touched[fresh.ravel()] = True
+            local = tri[touched[tri].any(axis=1)]
+        self._tri = tri
+        idx = np.flatnonzero(again)
+        if len(idx) and len(local) < len(tri):
+            self._measure(V, local, idx)
+            # Beyond the bound there: perhaps only because the nearest facet
+            # lies elsewhere, so measured against every facet.
+            idx = idx[self._d_in[idx] > self.bound]
+        if len(idx):
+            self._measure(V, tri, idx)
+        return self._d_in
+
+    def _measure(self, V: np.ndarray, tri: np.ndarray, idx: np.ndarray) -> None:
+        if len(tri) == 0:
+            self._d_in[idx], self._near[idx] = np.inf, -1
+            return
+        d, _, face, _ = core.MeshDistance(V, tri, side=False).query(self._probes[idx])
+        self._d_in[idx], self._near[idx] = d, tri[face]
+
+    def stats(self) -> dict:
+        """``checks`` made, points ``proposed``, points beyond the bound ``left``
+        at the last check (inside protecting balls, or too near a sample),
+        and the ``largest`` distance measured there."""
+        return {
+            "bound": self.bound,
+            "checks": self.checks,
+            "proposed": self.proposed,
+            "left": self.left,
+            "largest": self.largest,
+        }
+
+
+def input_probes(vertices: np.ndarray, faces: np.ndarray, spacing: float) -> np.ndarray:
+    """The input's vertices, then points along its creased edges (whose two
+    faces are not coplanar), at most ``spacing`` apart and at least the
+    midpoint: a long crease can stand out of the output between its ends."""
+    a, b = faces.ravel(), faces[:, [1, 2, 0]].ravel()
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    key = lo * len(vertices) + hi
+    order = np.argsort(key, kind="stable")
+    twin = key[order][1:] == key[order][:-1]
+    i, j = order[:-1][twin], order[1:][twin]
+    v = vertices
+    normals = unit_rows(np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]]))
+    creased = np.einsum("ij,ij->i", normals[i // 3], normals[j // 3]) < 1.0 - 1e-12
+    p, q = v[lo[i[creased]]], v[hi[i[creased]]]
+    parts = np.maximum(np.ceil(np.linalg.norm(q - p, axis=1) / spacing), 2).astype(np.int64)
+    owner = np.repeat(np.arange(len(p)), parts - 1)
+    step = np.arange(len(owner)) - np.repeat(np.cumsum(parts - 1) - (parts - 1), parts - 1) + 1
+    t = (step / parts[owner])[:, None]
+    return np.concatenate([v, p[owner] + t * (q[owner] - p[owner])])
+
+
+def _none(name: str) -> Candidates:
+    return Candidates(name, np.zeros((0, 3)), np.zeros(0), False)
+
+
+def deviation_stage(surface, distance_bound: float | None, balls=None) -> DeviationStage | None:
+    """The stage for a closed mesh input with a distance bound (None otherwise:
+    an open mesh's hole patches are not on its faces)."""
+    if distance_bound is None or getattr(surface, "sign_method", None) != "side":
+        return None
+    return DeviationStage(surface, float(distance_bound), balls)

@@ -1,0 +1,120 @@
+"""The distance bound measured both ways against a closed input mesh
+(rdmesh.refine.deviation, issue 30): input vertices and output edge midpoints
+within the bound, where the facet criterion alone leaves them beyond it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rdmesh
+import trimesh
+from meshcheck import triangle_angles_deg
+from rdmesh.core import MeshDistance
+from rdmesh.refine import methods
+from rdmesh.refine.deviation import DeviationStage, deviation_stage
+
+RADIUS, DISTANCE = 0.25, 0.02
+
+
+def faceted_sphere() -> rdmesh.MeshSurface:
+    """An icosphere of 80 faces: its vertices and edges are blunt creases
+    (below the sharp-edge angle, so nothing is protected)."""
+    ico = trimesh.creation.icosphere(subdivisions=1)
+    return rdmesh.MeshSurface(ico, feature_angle=None)
+
+
+def deviations(mesh: rdmesh.SurfaceMesh, surface: rdmesh.MeshSurface):
+    """Input vertices to the output, and output edge midpoints to the input."""
+    d_in = MeshDistance(mesh.vertices, mesh.faces, side=False).query(surface.vertices)[0]
+    e = np.unique(np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    mids = 0.5 * (mesh.vertices[e[:, 0]] + mesh.vertices[e[:, 1]])
+    d_out = MeshDistance(surface.vertices, surface.faces, side=False).query(mids)[0]
+    return d_in, d_out
+
+
+def remesh(surface, **kw) -> rdmesh.SurfaceMesh:
+    return rdmesh.mesh_surface(surface, radius_bound=RADIUS, distance_bound=DISTANCE, **kw)
+
+
+@pytest.fixture(scope="module")
+def checked():
+    surface = faceted_sphere()
+    return surface, remesh(surface)
+
+
+@pytest.fixture(scope="module")
+def unchecked():
+    """The same run without the check (the facet criterion alone)."""
+    keep = methods.deviation_stage
+    methods.deviation_stage = lambda *a, **k: None
+    try:
+        surface = faceted_sphere()
+        return surface, remesh(surface)
+    finally:
+        methods.deviation_stage = keep
+
+
+def test_without_the_check_the_input_stands_out(unchecked):
+    surface, mesh = unchecked
+    d_in, d_out = deviations(mesh, surface)
+    assert mesh.stats["distance_check"] is None
+    assert d_in.max() > 1.2 * DISTANCE or d_out.max() > 1.2 * DISTANCE
+
+
+def test_checked_points_are_within_the_bound(checked, unchecked):
+    surface, mesh = checked
+    stats = mesh.stats["distance_check"]
+    assert stats["bound"] == DISTANCE
+    assert stats["proposed"] > 0 and stats["checks"] >= 2
+    d_in, d_out = deviations(mesh, surface)
+    # Every checked point within the bound, except those the stats leave.
+    over = np.count_nonzero(d_in > DISTANCE * (1 + 1e-9)) + np.count_nonzero(
+        d_out > DISTANCE * (1 + 1e-9)
+    )
+    assert over <= stats["left"]
+    assert stats["largest"] <= DISTANCE or stats["left"] > 0
+    before = deviations(unchecked[1], unchecked[0])
+    assert max(d_in.max(), d_out.max()) < max(before[0].max(), before[1].max())
+
+
+def test_the_check_keeps_the_mesh_sound(checked, unchecked):
+    surface, mesh = checked
+    assert mesh.complete and mesh.is_closed_manifold()
+    assert mesh.report["euler"] == [2]
+    assert triangle_angles_deg(mesh.vertices[mesh.faces]).min() >= 30.0 - 1e-6
+    # Its points lie on the input.
+    assert np.abs(surface.signed_distance(mesh.vertices)).max() < 1e-9
+    assert len(mesh.vertices) > len(unchecked[1].vertices)
+    assert mesh.stats["inserted"].get("distance", 0) > 0
+
+
+def test_the_same_mesh_twice(checked):
+    surface, mesh = checked
+    again = remesh(surface)
+    assert np.array_equal(again.vertices, mesh.vertices)
+    assert np.array_equal(again.faces, mesh.faces)
+
+
+def test_only_closed_meshes_with_a_bound_are_checked():
+    closed = faceted_sphere()
+    assert isinstance(deviation_stage(closed, DISTANCE), DeviationStage)
+    assert deviation_stage(closed, None) is None
+    sphere = rdmesh.surfaces.get("sphere")
+    assert deviation_stage(sphere, DISTANCE) is None
+    ico = trimesh.creation.icosphere(subdivisions=2)
+    cap = ico.vertices[ico.faces].mean(axis=1)[:, 2] < 0.8  # a hole at the top
+    opened = rdmesh.MeshSurface((ico.vertices, ico.faces[cap]), feature_angle=None)
+    assert opened.sign_method == "winding"
+    assert deviation_stage(opened, DISTANCE) is None
+
+
+def test_no_point_is_proposed_in_a_protecting_ball():
+    """A box: its edges are protected, and its corners stand out of any
+    chamfer; the check proposes nothing inside the balls, and the corners
+    stay the output's vertices."""
+    box = rdmesh.MeshSurface(trimesh.creation.box(extents=(1.0, 0.8, 0.6)))
+    mesh = rdmesh.mesh_surface(box, radius_bound=0.2, distance_bound=0.02)
+    assert mesh.complete and mesh.is_closed_manifold()
+    assert mesh.features.held
+    d_in, _ = deviations(mesh, box)
+    assert d_in.max() < 1e-9  # the box's corners are vertices of the output
