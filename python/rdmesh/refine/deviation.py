@@ -8,11 +8,11 @@ output, farther than the bound, while every facet passes that test.
 
 A mesh input knows its surface exactly (closest points from CGAL's AABB
 tree), so once every other stage is satisfied, :class:`DeviationStage`
-measures where the deviation is largest on piecewise-flat surfaces: from each
-input vertex to the output, and from each output edge's midpoint and facet's
-centroid to the input. Where one is farther than the distance bound, it
-proposes the point of the input there (the input vertex itself, or the point
-of the input closest to the output's point): both lie on the surface, and
+measures where the deviation is largest on piecewise-flat surfaces: from the
+input's vertices and points along its creased edges to the output, and from
+the midpoints of the output's edges to the input. Where one is farther than
+the distance bound, it proposes the point of the input there (the input's
+point itself, or the point of the input closest to the output's): both lie on the surface, and
 both are farther than the bound from the output, so from every sample, which
 bounds how many it can add. These are points checked, not every point of
 either surface: the stage narrows the two-sided Hausdorff distance, it does
@@ -52,15 +52,15 @@ BALL_CLEARANCE = 4.0
 
 @dataclass
 class DeviationStage:
-    """Input vertices and output edge midpoints and centroids farther apart
+    """Input points and output edge midpoints farther from the other surface
     than ``bound`` (see the module's docstring).
 
     ``surface`` is a closed :class:`~rdmesh.MeshSurface` (its ``vertices``
     and ``closest_points``); ``balls`` the protecting balls, if any.
 
     After the first check, only what changed is measured again: the input is
-    fixed, so an output edge or facet found within the bound stays so, and an
-    input vertex's distance can grow only where its nearest facet is gone.
+    fixed, so an output edge found within the bound stays so, and an input
+    point's distance can grow only where its nearest facet is gone.
     """
 
     surface: object
@@ -131,9 +131,8 @@ class DeviationStage:
         return Candidates(self.name, points, gap, False, over)
 
     def _output_to_input(self, V: np.ndarray, tri: np.ndarray):
-        """Distances to the input from the midpoints of the output's edges and
-        the centroids of its facets not yet found within the bound, and the
-        input's closest points."""
+        """Distances to the input from the midpoints of the output's edges not
+        yet found within the bound, and the input's closest points."""
         keys, _ = distinct_edges(tri, len(V))
         edges = np.stack([keys // len(V), keys % len(V)], axis=1)
         edges = edges[row_index(edges, self._ok_edges) < 0]
@@ -146,7 +145,7 @@ class DeviationStage:
         return d, near
 
     def _input_to_output(self, V: np.ndarray, tri: np.ndarray) -> np.ndarray:
-        """Each input vertex's distance to the output (its last value where
+        """Each input point's distance to the output (its last value where
         its nearest facet is still there and it was within the bound)."""
         again = np.ones(len(self._d_in), bool)
         local = tri
@@ -178,8 +177,9 @@ class DeviationStage:
 
     def stats(self) -> dict:
         """``checks`` made, points ``proposed``, points beyond the bound ``left``
-        at the last check (inside protecting balls, or too near a sample),
-        and the ``largest`` distance measured there."""
+        at the last check (next to protecting balls, too near a sample, or
+        made by the repairs after the last proposing check), and the
+        ``largest`` distance measured there."""
         return {
             "bound": self.bound,
             "checks": self.checks,
