@@ -253,3 +253,42 @@ def test_f_alone_mesh_unchanged_with_fewer_gradients(monkeypatch):
     np.testing.assert_array_equal(on.vertices, off.vertices)
     np.testing.assert_array_equal(on.faces, off.faces)
     assert on.stats["evaluations"] < off.stats["evaluations"]
+
+
+def _ball_mesh():
+    import trimesh
+
+    return rdmesh.MeshSurface(trimesh.creation.icosphere(subdivisions=3), feature_angle=None)
+
+
+def test_proven_grid_clears_only_segments_that_miss_a_closed_mesh():
+    """A closed mesh's grid keeps a proven lower bound of |f| (the signed
+    distance, 1-Lipschitz) at every node, also where it skipped the node:
+    a segment it clears meets no face (CGAL's exact test), and it clears many."""
+    from rdmesh.sampling.grid import grid_scan
+
+    surface = _ball_mesh()
+    scan = grid_scan(surface, np.random.default_rng(0), 48)
+    field = scan.slopes
+    assert field is not None and field.in_ball == 1.0
+    rng = np.random.default_rng(1)
+    k = 20000
+    start = rng.uniform(-1.3, 1.3, (k, 3))
+    seg = np.stack([start, start + rng.normal(scale=0.03, size=(k, 3))], axis=1)
+    cleared = ~np.isnan(field.values.clearing_values(seg, np.ones(k)))
+    hit = np.zeros(k, bool)
+    hit[surface._core.segment_hits(seg)[0]] = True
+    assert hit.sum() > 200 and cleared.sum() > 0.3 * k
+    assert not (cleared & hit).any()
+
+
+def test_closed_mesh_facets_cleared_in_the_core_give_the_same_mesh(monkeypatch):
+    surface = _ball_mesh()
+    on = rdmesh.mesh_surface(surface, radius_bound=0.1, distance_bound=0.01)
+    assert on.stats["slope_bound"] == {"value": 1.0, "proven": True}
+    monkeypatch.setattr(mesher, "clear_in_core", lambda *a, **k: None)
+    off = rdmesh.mesh_surface(_ball_mesh(), radius_bound=0.1, distance_bound=0.01)
+    assert on.stats["facets_cleared"] > 0 == off.stats["facets_cleared"]
+    np.testing.assert_array_equal(on.vertices, off.vertices)
+    np.testing.assert_array_equal(on.faces, off.faces)
+    assert on.stats["segment_queries"] < off.stats["segment_queries"]

@@ -49,8 +49,8 @@ class GridScan:
     seeds : (m, 3) the thinned crossings: the initial sample.
     crossings : (c, 3) every grid-edge crossing (a probe set on the surface).
     spacing : grid spacing h.
-    slopes : the local slopes of ``f`` between the grid's nodes (None when
-        not measured: a Lipschitz ``f``'s grid skips nodes).
+    slopes : the local slopes of ``f`` between the grid's nodes (for a
+        Lipschitz ``f``, its constant and proven lower bounds of ``|f|``).
     """
 
     seeds: np.ndarray
@@ -109,7 +109,7 @@ def grid_scan(
         values = surface(np.concatenate([nodes.reshape(-1, 3), on_sphere]))
         F = values[: nodes[..., 0].size].reshape(n, n, n)
     else:
-        F = _lipschitz_grid(surface, nodes, h, float(lipschitz))
+        F, lower = _lipschitz_grid(surface, nodes, h, float(lipschitz))
         values = np.concatenate([F.ravel(), surface(on_sphere)])
     Fs = values[nodes[..., 0].size :]
     dist = np.linalg.norm(local, axis=-1)
@@ -184,9 +184,10 @@ def grid_scan(
         n_labels,
         len(out),
     )
-    slopes = None
     if lipschitz is None:
         slopes = SlopeField(F, h, c0, rot, R + h - shift, ~outside_ball)
+    else:
+        slopes = SlopeField.proven(lower, h, c0, rot, R + h - shift, float(lipschitz))
     return GridScan(out, points, h, slopes)
 
 
@@ -196,9 +197,10 @@ COARSE_STRIDE = 4
 
 def _lipschitz_grid(
     surface: ImplicitSurface, nodes: np.ndarray, h: float, lip: float
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """``f`` on the grid's nodes ``(n, n, n, 3)`` where its sign could be
-    in doubt; elsewhere a value of the same sign.
+    in doubt; elsewhere a value of the same sign. And a proven lower bound on
+    ``|f|`` with that sign at every node (``f`` itself where evaluated).
 
     ``f`` is ``lip``-Lipschitz (a signed distance: 1). A node whose nearest
     node of the coarse grid (every :data:`COARSE_STRIDE`-th) has
@@ -222,13 +224,14 @@ def _lipschitz_grid(
     F = Fc.copy()
     doubt = ~sure
     F[doubt] = surface(nodes[doubt])
+    lower = np.where(sure, np.sign(Fc) * (np.abs(Fc) - lip * dist * (1.0 + 1e-9)), F)
     log.debug(
         "seeding grid: %d of %d nodes evaluated (Lipschitz %g)",
         int(doubt.sum()) + C.size,
         F.size,
         lip,
     )
-    return F
+    return F, lower
 
 
 #: A segment end this close to the bounding sphere (times R) was clipped to it.

@@ -72,6 +72,17 @@ class SlopeField:
         #: whose |f| the bound cannot bring to 0 (``set_clearing``).
         self.values = core.GridField(values, centre, rotation, offset, h)
 
+    @classmethod
+    def proven(cls, lower: np.ndarray, h: float, centre, rotation, offset, lip: float):
+        """For a ``lip``-Lipschitz ``f``: the slope ``lip`` everywhere, and
+        ``lower``, a value of ``f``'s sign whose size is at most ``|f|`` at
+        each node (a grid that skips nodes knows only that much there)."""
+        field = cls.__new__(cls)
+        field.in_ball, field.h = float(lip), float(h)
+        field.grid = core.GridField(np.full(lower.shape, float(lip)), centre, rotation, offset, h)
+        field.values = core.GridField(lower, centre, rotation, offset, h)
+        return field
+
     def at(self, points: np.ndarray) -> np.ndarray:
         """The local slope at each point; inf off the grid."""
         return self.grid.at(points)
@@ -118,8 +129,8 @@ class SlopeBound:
 def clear_in_core(rdt: core.RestrictedDelaunay, bound: SlopeBound | None) -> None:
     """Let the core clear, without handing them out, the facets whose
     segment lies near a grid node with ``|f|`` above the bound times the
-    node's distance to every point of it (estimated bounds only: a proven
-    one comes without a grid)."""
+    node's distance to every point of it (with a proven bound, ``|f|`` at a
+    node is a proven lower bound: :meth:`SlopeField.proven`)."""
     if bound is not None and bound.field is not None:
         field = bound.field
         rdt.set_clearing(field.values, field.grid, SAFETY, REACH * field.h, bound.value)
@@ -130,7 +141,8 @@ def slope_bound(surface: ImplicitSurface, field: SlopeField | None) -> SlopeBoun
     (None when it measured nothing)."""
     lip = getattr(surface, "lipschitz", None)
     if lip is not None:
-        return SlopeBound(float(lip), True)
+        # With the grid's proven field the core clears far facets too.
+        return SlopeBound(float(lip), True, field)
     if field is None:
         return None
     # Over the ball, every segment's bound before the field's local ones.
