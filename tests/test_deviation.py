@@ -108,6 +108,18 @@ def test_only_closed_meshes_with_a_bound_are_checked():
     assert deviation_stage(opened, DISTANCE) is None
 
 
+def test_inputs_with_folds_are_not_checked():
+    """Noise that folds faces onto each other: following it to the bound
+    would refine into the folds, below the spacing floor."""
+    from test_remesh import variant
+
+    noisy = rdmesh.MeshSurface(variant("two_spheres", "noisy"))
+    assert noisy.sign_method == "side" and noisy.folds > 0
+    assert deviation_stage(noisy, DISTANCE) is None
+    clean = rdmesh.MeshSurface(variant("two_spheres", "plain"))
+    assert clean.folds == 0 and deviation_stage(clean, DISTANCE) is not None
+
+
 def test_no_point_is_proposed_in_a_protecting_ball():
     """A box: its edges are protected, and its corners stand out of any
     chamfer; the check proposes nothing inside the balls, and the corners

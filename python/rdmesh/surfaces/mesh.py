@@ -141,7 +141,7 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     every vertex lies on the input (to rounding, or the root tolerance where
     sampled), and every output triangle lies in a surface Delaunay ball
     centred on the input, so it is within the size bound of the input.
-    **Both ways** (closed input, nothing unresolved): the input's vertices and
+    **Both ways** (closed, no folds, nothing unresolved): the input's vertices and
     creased edges and the output's edge midpoints are measured against the
     other surface, and input points beyond the distance bound inserted once
     (``stats["distance_check"]``). Keeping the input's topology is sampled, not
