@@ -130,3 +130,21 @@ def test_no_point_is_proposed_in_a_protecting_ball():
     assert mesh.features.held
     d_in, _ = deviations(mesh, box)
     assert d_in.max() < 1e-9  # the box's corners are vertices of the output
+
+
+def test_input_probes_are_the_vertices_then_points_along_creased_edges():
+    """A 2-cube: 8 corners, then 3 points on each of its 12 edges at spacing
+    0.5 (its face diagonals are flat and get none); a spacing longer than
+    every edge still gives each creased edge its midpoint."""
+    from rdmesh.refine.deviation import input_probes
+
+    box = trimesh.creation.box(extents=(2.0, 2.0, 2.0))
+    p = input_probes(box.vertices, box.faces, 0.5)
+    assert np.array_equal(p[:8], box.vertices) and len(p) == 8 + 12 * 3
+    extra = p[8:]
+    assert np.all(np.isclose(np.abs(extra), 1.0).sum(axis=1) == 2)  # on the cube's edges
+    on_one = np.sort(extra[np.isclose(extra[:, 1], 1) & np.isclose(extra[:, 2], 1), 0])
+    np.testing.assert_allclose(on_one, [-0.5, 0.0, 0.5], atol=1e-12)
+    far = input_probes(box.vertices, box.faces, 100.0)
+    assert len(far) == 8 + 12
+    np.testing.assert_allclose(np.abs(far[8:]).sum(axis=1), 2.0)  # the edges' midpoints
