@@ -28,6 +28,7 @@ import numpy as np
 
 from .. import core
 from .._vectors import row_index, unit_rows
+from ..features.sharp_edges import sharp_edges
 from ..topology import Snapshot
 from ..topology.complex import distinct_edges
 from .stages import Candidates
@@ -42,6 +43,9 @@ MIN_GAP = 0.5
 #: each edge's midpoint. Two bounds apart measured 4 times as many points on
 #: the bone benchmark input, for a few percent less Hausdorff distance.
 EDGE_SPACING = 10.0
+#: Edges whose faces' normals differ by at least this many degrees are creased
+#: (flat ones cannot stand out of the output between their ends).
+CREASE_ANGLE = 1e-4
 #: Points within this times a protecting ball's radius of its centre are not
 #: proposed. Within one radius the ball would hide them; within a few, they
 #: would make triangles with the ball's vertex, where the angle bound is
@@ -112,15 +116,16 @@ class DeviationStage:
         self.largest = float(max(d_in.max(initial=0.0), d_out.max(initial=0.0)))
         far_in = d_in > self.bound
         far_out = d_out > self.bound
-        points = np.concatenate([self._probes[far_in & self._free], near[far_out]])
+        near = near[far_out]
+        if self.balls is not None and len(self.balls):
+            near = near[~self.balls.inside(near, BALL_CLEARANCE)]  # input points: _free
+        points = np.concatenate([self._probes[far_in & self._free], near])
         over = int(far_in.sum() + far_out.sum())
         if len(points) == 0 or self.checks > self.rounds:
             self.left = over
             return _none(self.name)
         gap = snap.tree.query(points)[0]
         keep = gap >= MIN_GAP * self.bound
-        if self.balls is not None and len(self.balls):
-            keep &= ~self.balls.inside(points, BALL_CLEARANCE)
         points, gap = points[keep], gap[keep]
         self.proposed += len(points)
         self.left = over - len(points)
@@ -193,16 +198,10 @@ def input_probes(vertices: np.ndarray, faces: np.ndarray, spacing: float) -> np.
     """The input's vertices, then points along its creased edges (whose two
     faces are not coplanar), at most ``spacing`` apart and at least the
     midpoint: a long crease can stand out of the output between its ends."""
-    a, b = faces.ravel(), faces[:, [1, 2, 0]].ravel()
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    key = lo * len(vertices) + hi
-    order = np.argsort(key, kind="stable")
-    twin = key[order][1:] == key[order][:-1]
-    i, j = order[:-1][twin], order[1:][twin]
     v = vertices
     normals = unit_rows(np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]]))
-    creased = np.einsum("ij,ij->i", normals[i // 3], normals[j // 3]) < 1.0 - 1e-12
-    p, q = v[lo[i[creased]]], v[hi[i[creased]]]
+    creased = sharp_edges(faces, normals, CREASE_ANGLE)
+    p, q = v[creased[:, 0]], v[creased[:, 1]]
     parts = np.maximum(np.ceil(np.linalg.norm(q - p, axis=1) / spacing), 2).astype(np.int64)
     owner = np.repeat(np.arange(len(p)), parts - 1)
     step = np.arange(len(owner)) - np.repeat(np.cumsum(parts - 1) - (parts - 1), parts - 1) + 1

@@ -238,7 +238,7 @@ def _sampled_crossings(
     if end_values is None:
         end_values = surface(np.concatenate([seg[:, 0], seg[:, 1]])).reshape(2, k).T
     if length is None:  # the caller's segment lengths, when it has them
-        length = row_norms(seg[:, 1] - seg[:, 0])
+        length = segment_directions(seg[:, 1] - seg[:, 0])[0]
     steep = end_slopes(end_values, length, surface.radius)
     rows = np.flatnonzero(~ruled_out(end_values, length, slope))
     if len(rows) == 0:
@@ -262,13 +262,12 @@ def _all_samples(surface, seg, u, end_values, samples):
     ``f`` there is what the search would find, and it takes those values
     instead of evaluating again."""
     flat = SegmentSamples(samples.offsets, samples.s)
-    points = samples.interior
     if end_values is None:
-        v = surface(np.concatenate([points, seg[:, 0], seg[:, 1]]))
-        interior_values = v[: len(points)]
-        end_values = v[len(points) :].reshape(2, len(seg)).T
+        v = surface(np.concatenate([samples.interior, seg[:, 0], seg[:, 1]]))
+        interior_values = v[: len(samples.interior)]
+        end_values = v[len(samples.interior) :].reshape(2, len(seg)).T
     else:
-        interior_values = surface(points)
+        interior_values = surface(samples.interior)
     xatol = ROOT_ATOL * surface.radius
     return line_crossings(surface, seg[:, 0], u, flat, xatol, interior_values, end_values)
 
