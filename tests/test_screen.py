@@ -292,3 +292,38 @@ def test_closed_mesh_facets_cleared_in_the_core_give_the_same_mesh(monkeypatch):
     np.testing.assert_array_equal(on.vertices, off.vertices)
     np.testing.assert_array_equal(on.faces, off.faces)
     assert on.stats["segment_queries"] < off.stats["segment_queries"]
+
+
+def test_closed_mesh_grid_crossings_are_exact_and_cost_no_root_search(monkeypatch):
+    """A closed mesh's seeding crossings come from its exact segment queries:
+    on the faces, on the same grid edges as the root search's, with fewer
+    evaluations of f."""
+    from rdmesh.sampling.grid import grid_scan
+
+    exact = _ball_mesh()
+    scan = grid_scan(exact, np.random.default_rng(0), 32)
+    searched = _ball_mesh()
+    monkeypatch.setattr(searched, "exact_crossings", None)
+    ref = grid_scan(searched, np.random.default_rng(0), 32)
+    assert exact.evaluations < searched.evaluations
+    assert exact.segment_queries > 0
+    d, *_ = exact._core.query(scan.crossings)
+    assert len(scan.crossings) == len(ref.crossings) > 100
+    assert d.max() < 1e-12
+    # The same crossings, to the root search's tolerance.
+    gap = np.linalg.norm(scan.crossings - ref.crossings, axis=1)
+    assert gap.max() < 1e-6
+
+
+def test_closed_mesh_sphere_is_clear():
+    """``sphere_clear`` (no search for f <= 0 on the bounding sphere) only for
+    closed meshes, where f > 0 on and outside the sphere."""
+    surface = _ball_mesh()
+    assert surface.sphere_clear
+    rng = np.random.default_rng(2)
+    u = rng.normal(size=(5000, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    r = surface.radius * rng.uniform(1.0, 3.0, size=(5000, 1))
+    assert (surface(surface.centre + r * u) > 0).all()
+    v, f = surface.vertices, surface.faces
+    assert not rdmesh.MeshSurface((v, f[1:])).sphere_clear

@@ -2,7 +2,7 @@
 
 ``f`` is evaluated once on a randomly rotated and shifted grid covering the
 bounding ball. Every grid edge with a sign change gives a crossing (one
-vectorised root search); the crossings are thinned per connected band of the
+vectorised root search, or a mesh input's exact crossings); the crossings are thinned per connected band of the
 grid so that every component keeps several samples (algorithm.md, 2.4). The
 same evaluation checks that ``f > 0`` on the bounding sphere and beyond it.
 """
@@ -148,9 +148,8 @@ def grid_scan(
     origin = np.concatenate(origins)
     direction = np.ascontiguousarray(np.concatenate(dirs))
     cell = np.concatenate(cells)
-    samples = SegmentSamples.uniform(np.full(len(origin), h), 1)
-    cr = line_crossings(surface, origin, direction, samples, xatol=SHOT_ATOL * R)
-    points, cell = cr.point, cell[cr.segment]
+    points, segment = _edge_crossings(surface, origin, direction, h)
+    cell = cell[segment]
     if clipped:
         within = depth(surface, points) > 0
         points, cell = points[within], cell[within]
@@ -189,6 +188,35 @@ def grid_scan(
     else:
         slopes = SlopeField.proven(lower, h, c0, rot, R + h - shift, float(lipschitz))
     return GridScan(out, points, h, slopes)
+
+
+def _edge_crossings(
+    surface: ImplicitSurface, origin: np.ndarray, direction: np.ndarray, h: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Crossings of the grid edges ``origin + s direction``, ``0 <= s <= h``
+    (each with a sign change): the points and their edges. A mesh input gives
+    them exactly (``exact_crossings``); edges it is unsure of, and other
+    surfaces, get the root search."""
+    exact = getattr(surface, "exact_crossings", None)
+    todo = np.arange(len(origin))
+    points, segment = [np.zeros((0, 3))], [np.zeros(0, np.int64)]
+    if exact is not None:
+        seg, _, point, _, _, unsure = exact(np.stack([origin, origin + h * direction], axis=1))
+        # An edge with a sign change and no hit is one the hits got wrong.
+        unsure |= np.bincount(seg, minlength=len(origin)) == 0
+        points.append(point[~unsure[seg]])
+        segment.append(seg[~unsure[seg]])
+        todo = np.flatnonzero(unsure)
+    if len(todo):
+        samples = SegmentSamples.uniform(np.full(len(todo), h), 1)
+        cr = line_crossings(
+            surface, origin[todo], direction[todo], samples, xatol=SHOT_ATOL * surface.radius
+        )
+        points.append(cr.point)
+        segment.append(todo[cr.segment])
+    points, segment = np.concatenate(points), np.concatenate(segment)
+    order = np.argsort(segment, kind="stable")
+    return points[order], segment[order]
 
 
 #: Stride of the coarse grid of :func:`_lipschitz_grid`.

@@ -93,6 +93,9 @@ class MeshQueries:
         v, f = self.vertices, self.faces
         #: Exact crossings of dual segments (closed meshes; None: sampled), and their count.
         self.exact_crossings, self.segment_queries = None, 0
+        #: f > 0 on and outside the bounding sphere, proven: a closed mesh's
+        #: vertices lie strictly inside it, and outside their hull f > 0.
+        self.sphere_clear = bool(self._core.has_side)
         if self._core.has_side:
             self.sign_method = "side"
             self.ambiguous_share = 0.0
