@@ -2,9 +2,10 @@
 
 ``f`` is evaluated once on a randomly rotated and shifted grid covering the
 bounding ball. Every grid edge with a sign change gives a crossing (one
-vectorised root search, or a mesh input's exact crossings); the crossings are thinned per connected band of the
-grid so that every component keeps several samples (algorithm.md, 2.4). The
-same evaluation checks that ``f > 0`` on the bounding sphere and beyond it.
+vectorised root search, or a mesh input's exact crossings); the crossings are
+thinned per connected band of the grid so that every component keeps several
+samples (algorithm.md, 2.4). The same evaluation checks that ``f > 0`` on the
+bounding sphere and beyond it.
 """
 
 from __future__ import annotations
