@@ -91,15 +91,12 @@ class MeshQueries:
         #: The gradient is a unit vector wherever f is differentiable.
         self.unit_gradient = False
         v, f = self.vertices, self.faces
-        #: Exact crossings of dual segments (closed meshes; None: sampled), and their count.
-        self.exact_crossings, self.segment_queries = None, 0
-        #: f > 0 on and outside the bounding sphere, proven: a closed mesh's
-        #: vertices lie strictly inside it, and outside their hull f > 0.
-        self.sphere_clear = bool(self._core.has_side)
+        #: Exact crossings (closed meshes; None: sampled), their count; f > 0 outside the sphere.
+        self.exact_crossings, self.segment_queries, self.sphere_clear = None, 0, False
         if self._core.has_side:
             self.sign_method = "side"
             self.ambiguous_share = 0.0
-            self.lipschitz, self.unit_gradient = 1.0, True
+            self.lipschitz, self.unit_gradient, self.sphere_clear = 1.0, True, True
             self.exact_crossings = partial(segment_crossings, self)
         else:
             self.sign_method = "winding"

@@ -143,8 +143,8 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     centred on the input, so it is within the size bound of the input.
     **Both ways** (closed, no folds, nothing unresolved): the input's vertices and
     creased edges and the output's edge midpoints are measured against the
-    other surface, and input points beyond the distance bound inserted once
-    (``stats["distance_check"]``). Keeping the input's topology is sampled, not
+    other surface, and input points beyond the distance bound inserted in
+    two passes (``stats["distance_check"]``). Keeping the input's topology is sampled, not
     proven: it holds when the size bound is below the feature size of the
     shape the mesh approximates (scans, organic shapes). Sharp creases
     (CAD models) are kept through ``feature_angle``: each sharp-edge chain is
