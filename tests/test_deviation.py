@@ -11,7 +11,7 @@ import trimesh
 from meshcheck import triangle_angles_deg
 from rdmesh.core import MeshDistance
 from rdmesh.refine import methods
-from rdmesh.refine.deviation import DeviationStage, deviation_stage
+from rdmesh.refine.deviation import DeviationStage, _around, deviation_stage
 
 RADIUS, DISTANCE = 0.25, 0.02
 
@@ -148,3 +148,27 @@ def test_input_probes_are_the_vertices_then_points_along_creased_edges():
     far = input_probes(box.vertices, box.faces, 100.0)
     assert len(far) == 8 + 12
     np.testing.assert_allclose(np.abs(far[8:]).sum(axis=1), 2.0)  # the edges' midpoints
+
+
+def test_around_keeps_every_facet_that_can_hold_the_nearest_point():
+    """Later checks measure the points still beyond the bound only against
+    the facets near them: the distances are those to every facet, also with
+    tight upper bounds (a facet's vertices can be farther than the facet)."""
+    from scipy.spatial import cKDTree
+
+    ico = trimesh.creation.icosphere(subdivisions=3)
+    V, tri = np.asarray(ico.vertices), np.asarray(ico.faces, np.int64)
+    rng = np.random.default_rng(0)
+    points = rng.normal(size=(300, 3)) * 0.6
+    points[:10] = V[rng.choice(len(V), 10)] * rng.uniform(0.97, 1.03, (10, 1))
+    exact = MeshDistance(V, tri, side=False).query(points)[0]
+    tree = cKDTree(V)
+    for upper in (exact, exact + 0.05):
+        near = _around(V, tri, tree, points[:10], upper[:10])
+        assert 0 < len(near) < len(tri) / 4
+        got = MeshDistance(V, near, side=False).query(points[:10])[0]
+        np.testing.assert_array_equal(got, exact[:10])
+    far = _around(V, tri, tree, points, exact)
+    np.testing.assert_array_equal(MeshDistance(V, far, side=False).query(points)[0], exact)
+    unknown = np.r_[exact[:-1], np.inf]
+    assert len(_around(V, tri, tree, points, unknown)) == len(tri)

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from itertools import chain
 
 import numpy as np
 
@@ -116,7 +117,7 @@ class DeviationStage:
         if len(tri) == 0:
             return _none(self.name)
         d_out, near = self._output_to_input(V, tri)
-        d_in = self._input_to_output(V, tri)
+        d_in = self._input_to_output(V, tri, snap.tree)
         self.largest = float(max(d_in.max(initial=0.0), d_out.max(initial=0.0)))
         far_in = d_in > self.bound
         far_out = d_out > self.bound
@@ -153,9 +154,10 @@ class DeviationStage:
         self._ok_edges = np.concatenate([self._ok_edges, edges[d <= self.bound]])
         return d, near
 
-    def _input_to_output(self, V: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    def _input_to_output(self, V: np.ndarray, tri: np.ndarray, tree) -> np.ndarray:
         """Each input point's distance to the output (its last value where
-        its nearest facet is still there and it was within the bound)."""
+        its nearest facet is still there and it was within the bound);
+        ``tree`` is a k-d tree of ``V``."""
         again = np.ones(len(self._d_in), bool)
         local = tri
         if self._tri is not None:
@@ -168,13 +170,15 @@ class DeviationStage:
             local = tri[touched[tri].any(axis=1)]
         self._tri = tri
         idx = np.flatnonzero(again)
+        upper = np.full(len(idx), np.inf)
         if len(idx) and len(local) < len(tri):
             self._measure(V, local, idx)
             # Beyond the bound there: perhaps only because the nearest facet
-            # lies elsewhere, so measured against every facet.
+            # lies elsewhere, so measured against every facet that can hold it.
             idx = idx[self._d_in[idx] > self.bound]
+            upper = self._d_in[idx]
         if len(idx):
-            self._measure(V, tri, idx)
+            self._measure(V, _around(V, tri, tree, self._probes[idx], upper), idx)
         return self._d_in
 
     def _measure(self, V: np.ndarray, tri: np.ndarray, idx: np.ndarray) -> None:
@@ -211,6 +215,30 @@ def input_probes(vertices: np.ndarray, faces: np.ndarray, spacing: float) -> np.
     step = np.arange(len(owner)) - np.repeat(np.cumsum(parts - 1) - (parts - 1), parts - 1) + 1
     t = (step / parts[owner])[:, None]
     return np.concatenate([v, p[owner] + t * (q[owner] - p[owner])])
+
+
+def _around(V: np.ndarray, tri: np.ndarray, tree, points: np.ndarray, upper: np.ndarray):
+    """The facets of ``tri`` that can hold the point nearest to each of
+    ``points`` given ``upper`` bounds on those distances (all of ``tri``
+    where a bound is infinite). A facet at distance ``d`` from a point has
+    every vertex within ``d`` plus its longest edge of it (a triangle's
+    diameter), so the facets with a vertex within ``upper`` plus the longest
+    edge of every facet hold the nearest points."""
+    if len(tri) == 0 or not np.isfinite(upper).all():
+        return tri
+    corners = V[tri]
+    longest = np.sqrt(max(
+        np.einsum("ij,ij->i", d, d).max() for d in (
+            corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 1],
+            corners[:, 0] - corners[:, 2],
+        )
+    ))  # fmt: skip
+    # A relative margin for rounding in the bounds and the tree's distances.
+    reach = (upper + longest) * (1.0 + 1e-9) + 1e-300
+    found = tree.query_ball_point(points, reach, return_sorted=False)
+    near = np.zeros(len(V), bool)
+    near[np.fromiter(chain.from_iterable(found), np.int64)] = True
+    return tri[near[tri].any(axis=1)]
 
 
 def _none(name: str) -> Candidates:
