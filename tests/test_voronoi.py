@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import rdmesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rdmesh.core import _rdt
 from rdmesh.sampling.probes import Probes
 from rdmesh.topology.complex import complex_status
@@ -245,3 +247,22 @@ def test_report_has_the_loop_test(sphere_case):
     assert "damped Newton" in t["tests"] and "missed by every seed is not seen" in t["tests"]
     assert list(rep["tests"]).index("voronoi_loop") == 2
     assert "voronoi_loop" in sphere_case.mesh.stats["phase_seconds"]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(0, 60), st.integers(3, 12))
+def test_complex_status_counts_every_edge(seed, n_faces, n_vertices):
+    """Edge keys, counts and each facet's edges against np.unique, on random
+    triangle sets (repeated faces and edges of any multiplicity)."""
+    rng = np.random.default_rng(seed)
+    faces = np.array([rng.choice(n_vertices, 3, replace=False) for _ in range(n_faces)])
+    faces = faces.reshape(-1, 3).astype(np.int64)
+    status = complex_status(faces, n_vertices)
+    pairs = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    keys = pairs[:, 0] * n_vertices + pairs[:, 1]
+    want, count = np.unique(keys, return_counts=True)
+    np.testing.assert_array_equal(status.edge_key, want)
+    np.testing.assert_array_equal(status.edge_count, count)
+    np.testing.assert_array_equal(status.edge_key[status.facet_edges].ravel(), keys)
+    used = np.unique(faces)
+    assert (status.vertex_fans[used] >= 1).all()

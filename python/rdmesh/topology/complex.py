@@ -55,19 +55,24 @@ def complex_status(faces: np.ndarray, n_vertices: int) -> ComplexStatus:
     faces = np.asarray(faces, dtype=np.int64)
     F = len(faces)
     a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
-    # Written into one array and inverted by search, not np.unique, whose
-    # temporaries set the peak memory of a large run.
+    # Written into one array and inverted through its sort order, not
+    # np.unique, whose temporaries set the peak memory of a large run (nor a
+    # binary search of every key, which cost twice the sort).
     keys = np.empty(3 * F, np.int64)
     for j, (u, v) in enumerate(((a, b), (b, c), (c, a))):
         keys[j * F : (j + 1) * F] = _pair_keys(u, v, n_vertices)
-    sk = np.sort(keys)
+    order = np.argsort(keys, kind="stable")
+    sk = keys[order]
+    del keys
     first = np.r_[True, sk[1:] != sk[:-1]] if F else np.zeros(0, bool)
     edge_key = sk[first]
     counts = np.diff(np.r_[np.flatnonzero(first), len(sk)])
-    del sk, first
+    del sk
     # Edge indices fit in int32 (fewer than 2**31 edges); halves the memory.
-    facet_edges = np.searchsorted(edge_key, keys).astype(np.int32).reshape(3, F).T
-    del keys
+    flat = np.empty(3 * F, np.int32)
+    flat[order] = np.cumsum(first, dtype=np.int32) - 1
+    del order, first
+    facet_edges = flat.reshape(3, F).T
     # Fans: nodes are spokes, an edge seen from one of its ends (2 per edge:
     # 2 e + [seen from the larger id]); each facet joins the two spokes at
     # each corner, so a fan is a connected set of spokes.
