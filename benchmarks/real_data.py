@@ -24,6 +24,11 @@ complete, the seeding's level::
 
     python benchmarks/real_data.py [--quick] [--out results/real-data-DATE.json]
         [--only remesh|volume] [--cases bone,genus-2] [--sizes 0.01,0.003]
+        [--repeat 3]
+
+``--repeat N`` remeshes each case N times with each tool, alternating, and
+records the median time (every time in ``times``): on a shared machine one
+run of either can be 20 % off.
 
 ``--quick`` runs the 1 % size only and leaves out the grey-matter map.
 Needs ``pymeshlab``, ``nilearn`` and ``scikit-image`` (``pip install
@@ -38,6 +43,7 @@ import json
 import math
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -253,7 +259,23 @@ def run_pymeshlab(v, f, r: float):
     return m.vertex_matrix().copy(), m.face_matrix().astype(np.int64), sec
 
 
-def remesh_rows(sizes: tuple[float, ...], cases: str | None = None) -> list[dict]:
+def _alternating(runs, repeat: int) -> list[list]:
+    """Each of ``runs`` (callables) ``repeat`` times, alternating which goes
+    first; the results per run."""
+    out: list[list] = [[] for _ in runs]
+    for k in range(repeat):
+        order = range(len(runs)) if k % 2 == 0 else reversed(range(len(runs)))
+        for i in order:
+            out[i].append(runs[i]())
+    return out
+
+
+def _median_seconds(results: list, key) -> tuple[float, list[float]]:
+    times = [round(key(r), 3) for r in results]
+    return float(np.median(times)), times
+
+
+def remesh_rows(sizes: tuple[float, ...], cases: str | None = None, repeat: int = 1) -> list[dict]:
     import rdmesh
 
     rows = []
@@ -272,25 +294,34 @@ def remesh_rows(sizes: tuple[float, ...], cases: str | None = None) -> list[dict
             r = frac * diag
             base = {"kind": "remesh", "case": name, "size": f"{100 * frac:g} %", "input": inp,
                     "input_self_intersections": intersects}  # fmt: skip
-            run = run_rdmesh_remesh(ref, r)
+            try:
+                import pymeshlab  # noqa: F401
+
+                runs = [partial(run_rdmesh_remesh, ref, r),
+                        partial(run_pymeshlab, ref.vertices, ref.faces, r)]  # fmt: skip
+            except ImportError:
+                runs = [partial(run_rdmesh_remesh, ref, r)]
+            done = _alternating(runs, repeat)
+            run = dict(done[0][0])
             m = run.pop("mesh")
+            run.pop("seconds")
+            sec, times = _median_seconds(done[0], lambda x: x["seconds"])
             rows.append({
                 **base, "mesher": "rdmesh", "vertices": len(m.vertices),
                 **topology(m.vertices, m.faces),
                 "min_angle": round(min_angle(m.vertices, m.faces), 1),
                 "hausdorff_diag": round(hausdorff(m.vertices, m.faces, ref) / diag, 5),
-                "seconds": round(run.pop("seconds"), 2), **run,
+                "seconds": round(sec, 2), "times": times, **run,
             })  # fmt: skip
-            try:
-                pv, pf, sec = run_pymeshlab(ref.vertices, ref.faces, r)
+            if len(done) > 1:
+                pv, pf, _ = done[1][0]
+                sec, times = _median_seconds(done[1], lambda x: x[2])
                 rows.append({
                     **base, "mesher": "pymeshlab", "vertices": len(pv), **topology(pv, pf),
                     "min_angle": round(min_angle(pv, pf), 1),
                     "hausdorff_diag": round(hausdorff(pv, pf, ref) / diag, 5),
-                    "seconds": round(sec, 2),
+                    "seconds": round(sec, 2), "times": times,
                 })  # fmt: skip
-            except ImportError:
-                pass
             print(json.dumps(rows[-2:], default=str), file=sys.stderr, flush=True)
     return rows
 
@@ -385,13 +416,16 @@ def main(argv=None) -> int:
     ap.add_argument("--only", choices=("remesh", "volume"), default=None)
     ap.add_argument("--cases", default=None, help="comma-separated parts of case names")
     ap.add_argument("--sizes", default=None, help="comma-separated fractions of the diagonal")
+    ap.add_argument("--repeat", type=int, default=1, help="runs of each remesher (median)")
     args = ap.parse_args(argv)
+    if args.repeat < 1:
+        ap.error("--repeat must be at least 1")
     sizes = (0.01,) if args.quick else (0.01, 0.003)
     if args.sizes:
         sizes = tuple(float(x) for x in args.sizes.split(","))
     rows = []
     if args.only != "volume":
-        rows += remesh_rows(sizes, args.cases)
+        rows += remesh_rows(sizes, args.cases, args.repeat)
     if args.only != "remesh":
         rows += volume_rows(args.quick, args.cases)
     from record import git_commit

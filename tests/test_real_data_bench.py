@@ -45,3 +45,15 @@ def test_specks_volume_has_six_interpolant_components():
     vol = real_data.specks()
     surface = rdmesh.VolumeSurface(vol, isovalue=0.5)
     assert real_data._reference(surface)["components"] == 6
+
+
+def test_alternating_runs_change_which_goes_first():
+    calls = []
+    runs = [lambda: calls.append("a") or len(calls), lambda: calls.append("b") or len(calls)]
+    out = real_data._alternating(runs, 3)
+    assert calls == ["a", "b", "b", "a", "a", "b"]
+    assert out == [[1, 4, 5], [2, 3, 6]]
+    assert real_data._median_seconds([{"s": 3.0}, {"s": 1.0}, {"s": 2.0}], lambda x: x["s"]) == (
+        2.0,
+        [3.0, 1.0, 2.0],
+    )
