@@ -32,7 +32,6 @@ from .. import core
 from .._vectors import row_index, unit_rows
 from ..features.sharp_edges import sharp_edges
 from ..topology import Snapshot
-from ..topology.complex import distinct_edges
 from .stages import Candidates
 
 log = logging.getLogger("rdmesh")
@@ -116,7 +115,11 @@ class DeviationStage:
         V = snap.vertices
         if len(tri) == 0:
             return _none(self.name)
-        d_out, near = self._output_to_input(V, tri)
+        # The output's edges: the snapshot's status has them (the edge and
+        # vertex tests computed it for this snapshot).
+        keys = snap.status.edge_key
+        edges = np.stack([keys // len(V), keys % len(V)], axis=1)
+        d_out, near = self._output_to_input(V, edges)
         d_in = self._input_to_output(V, tri, snap.tree)
         self.largest = float(max(d_in.max(initial=0.0), d_out.max(initial=0.0)))
         far_in = d_in > self.bound
@@ -140,11 +143,9 @@ class DeviationStage:
         )  # fmt: skip
         return Candidates(self.name, points, gap, False, over)
 
-    def _output_to_input(self, V: np.ndarray, tri: np.ndarray):
-        """Distances to the input from the midpoints of the output's edges not
-        yet found within the bound, and the input's closest points."""
-        keys, _ = distinct_edges(tri, len(V))
-        edges = np.stack([keys // len(V), keys % len(V)], axis=1)
+    def _output_to_input(self, V: np.ndarray, edges: np.ndarray):
+        """Distances to the input from the midpoints of the output's ``edges``
+        not yet found within the bound, and the input's closest points."""
         edges = edges[row_index(edges, self._ok_edges) < 0]
         if len(edges) == 0:
             return np.zeros(0), np.zeros((0, 3))

@@ -269,9 +269,7 @@ def _attempt(m: Mesher, t0: float, evals0: int, ivals0: int, shrink: list) -> Su
                 m.pipeline.protected = True
             m._insert(seeds, "seeds")
             stop = m._loop(plan, t0, stop)
-            # A closed mesh proves f > 0 there: its vertices lie inside the
-            # sphere, and outside their hull the side is "outside".
-            if not m.clipped and not getattr(m.surface, "sphere_clear", False):
+            if not m.clipped:
                 check_sphere_near(m.surface, m.vertices)
         except KeyboardInterrupt:
             interrupted, stop = True, "interrupted"

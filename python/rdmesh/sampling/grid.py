@@ -314,9 +314,12 @@ def check_sphere_near(surface: ImplicitSurface, samples: np.ndarray) -> None:
     the sphere, are projected onto it, and Newton steps along the sphere (the
     tangential gradient) drive ``f`` towards zero from there. A point found
     with ``f <= 0`` proves that the surface reaches the sphere; finding none
-    proves nothing (a search from samples).
+    proves nothing (a search from samples). Nothing to search where the
+    surface proves ``f > 0`` there (``sphere_clear``: a closed mesh, whose
+    vertices lie inside the sphere and whose side is "outside" beyond their
+    hull).
     """
-    if len(samples) == 0:
+    if len(samples) == 0 or getattr(surface, "sphere_clear", False):
         return
     c0, R = surface.centre, surface.radius
     d = samples - c0
