@@ -69,9 +69,29 @@ void GridField::segment_bounds(const double* seg, std::size_t k, double reach, d
   }
 }
 
+bool GridField::nearest(const double* p, std::int64_t& index,
+                        std::array<double, 3>& offset) const {
+  const double d[3] = {p[0] - centre_[0], p[1] - centre_[1], p[2] - centre_[2]};
+  std::array<std::int64_t, 3> q;
+  for (int a = 0; a < 3; ++a) {
+    const double u = (d[0] * rot_[a] + d[1] * rot_[3 + a] + d[2] * rot_[6 + a] + offset_[a]) / h_;
+    const double x = std::nearbyint(u);
+    if (!(x >= 0.0 && x < static_cast<double>(n_[a]))) return false;  // also NaN
+    q[a] = static_cast<std::int64_t>(x);
+    offset[a] = u - x;
+  }
+  index = (q[0] * n_[1] + q[1]) * n_[2] + q[2];
+  return true;
+}
+
 std::array<double, 3> GridField::position(const std::array<std::int64_t, 3>& ijk) const {
+  return point_at({static_cast<double>(ijk[0]), static_cast<double>(ijk[1]),
+                   static_cast<double>(ijk[2])});
+}
+
+std::array<double, 3> GridField::point_at(const std::array<double, 3>& u) const {
   double local[3];
-  for (int a = 0; a < 3; ++a) local[a] = h_ * static_cast<double>(ijk[a]) - offset_[a];
+  for (int a = 0; a < 3; ++a) local[a] = h_ * u[a] - offset_[a];
   std::array<double, 3> p;
   for (int r = 0; r < 3; ++r)
     p[r] = centre_[r] + rot_[3 * r] * local[0] + rot_[3 * r + 1] * local[1] +

@@ -37,6 +37,13 @@ class GridField {
   // not (or off the grid).
   void clearing_values(const double* seg, std::size_t k, const double* bound, double* out) const;
 
+  // The node nearest p (its index in C order, false off the grid) and p's
+  // offset from it in grid steps, each in [-1/2, 1/2].
+  bool nearest(const double* p, std::int64_t& index, std::array<double, 3>& offset) const;
+  // Where the point at grid coordinates u lies (node (i, j, k) at u = (i, j, k)).
+  std::array<double, 3> point_at(const std::array<double, 3>& u) const;
+  double spacing() const { return h_; }
+
   const std::vector<double>& values() const { return values_; }
   const std::array<std::int64_t, 3>& shape() const { return n_; }
 

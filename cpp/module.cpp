@@ -30,6 +30,7 @@ using rdmesh::RestrictedDelaunay;
 using rdmesh::bind::copy_of;
 using rdmesh::bind::FlagArray;
 using rdmesh::bind::IdArray;
+using rdmesh::FineField;
 using rdmesh::bind::InArray;
 using rdmesh::bind::rows3;
 using rdmesh::bind::samples_tuple;
@@ -353,6 +354,93 @@ PYBIND11_MODULE(_rdt, m) {
             locked(self, [&] { self.set_clearing_cap(cap); });
           },
           py::arg("cap"), "The largest bound of set_clearing's (a raised estimate).")
+      .def(
+          "set_fine_clearing",
+          [](RestrictedDelaunay& self, int m, std::int64_t threshold, double reach) {
+            if (threshold < 1 || threshold > std::numeric_limits<std::uint32_t>::max())
+              throw std::invalid_argument("threshold must be in 1..2^32-1");
+            locked(self, [&] {
+              self.set_fine_clearing(m, static_cast<std::uint32_t>(threshold), reach);
+            });
+          },
+          py::arg("m"), py::arg("threshold"), py::arg("reach"),
+          "A finer level of the clearing (after set_clearing): the cube of a grid node "
+          "(the points nearest it) gets f at its m^3 subcube centres once filled; a "
+          "node becomes hot at its threshold-th segment that nothing cleared. A filled "
+          "cube clears segments up to reach long by its nearest subcube centre and its "
+          "bound (see take_hot_nodes, fine_points, fill_fine).")
+      .def(
+          "grid_clears",
+          [](RestrictedDelaunay& self, const InArray& seg) {
+            if (seg.ndim() != 3 || seg.shape(1) != 2 || seg.shape(2) != 3)
+              throw std::invalid_argument("seg must have shape (k, 2, 3)");
+            const double* s = seg.data();
+            std::vector<std::uint8_t> out(static_cast<std::size_t>(seg.shape(0)));
+            locked(self, [&] {
+              for (std::size_t i = 0; i < out.size(); ++i) {
+                const double* a = s + 6 * i;
+                out[i] = self.grid_clears({a[0], a[1], a[2]}, {a[3], a[4], a[5]});
+              }
+            });
+            return py::array_t<bool>(static_cast<py::ssize_t>(out.size()),
+                                     reinterpret_cast<const bool*>(out.data()));
+          },
+          py::arg("seg"),
+          "Per segment (k, 2, 3): whether the clearing (set_clearing, then the fine "
+          "level) clears it, as it would a facet's dual; each uncleared one counts a "
+          "miss for the fine level.")
+      .def(
+          "take_hot_nodes",
+          [](RestrictedDelaunay& self) {
+            std::vector<std::int64_t> hot = locked(self, [&] {
+              FineField* fine = self.fine_clearing();
+              return fine ? fine->take_hot() : std::vector<std::int64_t>{};
+            });
+            return to_numpy(hot);
+          },
+          "The grid nodes that became hot since the last call (set_fine_clearing).")
+      .def(
+          "fine_points",
+          [](RestrictedDelaunay& self, const IdArray& nodes) {
+            if (nodes.ndim() != 1) throw std::invalid_argument("nodes must be 1-D");
+            const std::vector<std::int64_t> ids(nodes.data(), nodes.data() + nodes.size());
+            std::vector<double> out = locked(self, [&] {
+              FineField* fine = self.fine_clearing();
+              if (!fine) throw std::logic_error("no fine clearing (set_fine_clearing)");
+              return fine->points(ids);
+            });
+            return to_numpy(out, {static_cast<py::ssize_t>(out.size() / 3), 3});
+          },
+          py::arg("nodes"), "The m^3 subcube centres of each node's cube (k * m^3, 3).")
+      .def(
+          "fill_fine",
+          [](RestrictedDelaunay& self, const IdArray& nodes, const InArray& values,
+             const InArray& bounds) {
+            if (nodes.ndim() != 1 || bounds.ndim() != 1 || values.ndim() != 1 ||
+                bounds.shape(0) != nodes.shape(0))
+              throw std::invalid_argument("nodes and bounds (k,) and values (k * m^3,) are 1-D");
+            const std::vector<std::int64_t> ids(nodes.data(), nodes.data() + nodes.size());
+            locked(self, [&] {
+              FineField* fine = self.fine_clearing();
+              if (!fine) throw std::logic_error("no fine clearing (set_fine_clearing)");
+              const py::ssize_t m = fine->subdivisions();
+              if (values.shape(0) != nodes.shape(0) * m * m * m)
+                throw std::invalid_argument("values must hold m^3 entries per node");
+              fine->fill(ids, values.data(), bounds.data());
+            });
+          },
+          py::arg("nodes"), py::arg("values"), py::arg("bounds"),
+          "Fill the nodes' cubes: f at their fine_points and a bound on |grad f| each.")
+      .def_property_readonly(
+          "fine_clearing_stats",
+          [](RestrictedDelaunay& self) {
+            return locked(self, [&] {
+              FineField* fine = self.fine_clearing();
+              return fine ? std::make_pair(fine->filled(), fine->cleared())
+                          : std::make_pair(std::size_t{0}, std::uint64_t{0});
+            });
+          },
+          "(cubes filled, segments they cleared) of the fine clearing.")
       .def_property_readonly(
           "cleared_facets",
           [](RestrictedDelaunay& self) {

@@ -573,14 +573,21 @@ void RestrictedDelaunay::set_clearing(const GridField& f, const GridField& slope
   clear_scale_ = scale;
   clear_reach_ = reach;
   clear_cap_ = cap;
+  fine_.reset();
 }
 
-bool RestrictedDelaunay::cleared_by_grid(const Vec3& a, const Vec3& b) const {
+void RestrictedDelaunay::set_fine_clearing(int m, std::uint32_t threshold, double reach) {
+  if (!clear_f_) throw std::logic_error("set_fine_clearing needs set_clearing first");
+  fine_ = std::make_unique<FineField>(*clear_f_, m, threshold, reach);
+}
+
+bool RestrictedDelaunay::cleared_by_grid(const Vec3& a, const Vec3& b) {
   const double seg[6] = {a[0], a[1], a[2], b[0], b[1], b[2]};
   double bound, value;
   clear_slopes_->segment_bounds(seg, 1, clear_reach_, clear_scale_, clear_cap_, &bound);
   clear_f_->clearing_values(seg, 1, &bound, &value);
-  return !std::isnan(value);
+  if (!std::isnan(value)) return true;
+  return fine_ && fine_->clears(a.data(), b.data(), clear_cap_);
 }
 
 void RestrictedDelaunay::withdraw_chunk(std::uint64_t serial) {

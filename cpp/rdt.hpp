@@ -34,6 +34,7 @@
 #include <CGAL/Triangulation_data_structure_3.h>
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
 
+#include "fine_field.hpp"
 #include "grid_field.hpp"
 #include "sampling.hpp"
 
@@ -284,6 +285,16 @@ class RestrictedDelaunay {
   void set_clearing(const GridField& f, const GridField& slopes, double scale, double reach,
                     double cap);
   void set_clearing_cap(double cap) { clear_cap_ = cap; }
+  // A finer level of the clearing (FineField over set_clearing's grid, with
+  // cap as its bounds' cap), for segments the grid did not clear; a new
+  // set_clearing drops it.  Throws std::logic_error before set_clearing.
+  void set_fine_clearing(int m, std::uint32_t threshold, double reach);
+  FineField* fine_clearing() { return fine_.get(); }
+  // Whether the clearing (grid, then its fine level) clears segment a -> b,
+  // as for a facet's dual (an uncleared one counts a miss).
+  bool grid_clears(const std::array<double, 3>& a, const std::array<double, 3>& b) {
+    return clear_f_ && cleared_by_grid(a, b);
+  }
   // Facets cleared so, since construction.
   std::uint64_t cleared_facets() const { return cleared_; }
   // Circumcentres computed exactly because the double one was not
@@ -348,9 +359,10 @@ class RestrictedDelaunay {
   std::uint64_t reused_ = 0;  // see reused_facets()
   std::uint64_t cleared_ = 0;  // see cleared_facets()
   std::unique_ptr<GridField> clear_f_, clear_slopes_;
+  std::unique_ptr<FineField> fine_;
   double clear_scale_ = 0.0, clear_reach_ = 0.0, clear_cap_ = 0.0;
   // Whether the grid clears segment a -> b (set_clearing).
-  bool cleared_by_grid(const std::array<double, 3>& a, const std::array<double, 3>& b) const;
+  bool cleared_by_grid(const std::array<double, 3>& a, const std::array<double, 3>& b);
   std::uint64_t exact_circumcentres_ = 0;  // see exact_circumcentres()
   mutable std::mutex mutex_;
   std::vector<Vertex_handle> round_vertices_;  // inserted before this round

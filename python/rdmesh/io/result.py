@@ -37,8 +37,8 @@ class SurfaceMesh:
     stats : dict
         Run statistics: ``seconds``, ``rounds``, ``vertices``, ``faces``,
         ``evaluations`` (points at which ``f`` was evaluated), ``segment_queries``
-        (exact crossings of a closed mesh), ``slope_bound`` and ``facets_cleared``
-        (:mod:`rdmesh.sampling.screen`), ``distance_check`` (:mod:`rdmesh.refine.deviation`),
+        (exact crossings of a closed mesh), ``slope_bound``, ``facets_cleared``, ``fine_clearing``
+        (:mod:`rdmesh.sampling`), ``distance_check`` (:mod:`rdmesh.refine.deviation`),
         ``inserted`` per stage, ``unresolved``, ``phase_seconds`` and more. ``phase_seconds`` adds
         up the wall time of each phase of the main thread; its
         ``core_changed_facets`` and ``core_update_facets`` are the core

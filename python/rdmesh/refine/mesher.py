@@ -27,6 +27,7 @@ from ..features.check import check_features, repair_sites
 from ..io.result import SurfaceMesh
 from ..sampling.boundary import BoundaryCurve, guard_boundary
 from ..sampling.domain import clip_box
+from ..sampling.fine_clearing import fine_clearing
 from ..sampling.grid import check_sphere_near
 from ..sampling.screen import clear_in_core, slope_bound
 from ..surfaces.oracle import ImplicitSurface
@@ -254,7 +255,10 @@ def _attempt(m: Mesher, t0: float, evals0: int, ivals0: int, shrink: list) -> Su
         )  # fmt: skip
     m.plan = plan
     m.pipeline.slope = slope_bound(m.surface, plan.slopes)
-    clear_in_core(m.rdt, m.pipeline.slope)
+    fine = None
+    if clear_in_core(m.rdt, m.pipeline.slope):
+        fine = fine_clearing(m.rdt, m.pipeline.surface, m.pipeline.slope)
+    m.pipeline.fine = fine
     seeds, stop = plan.seeds, None
     cap = m.budget.max_vertices
     if cap is not None and len(seeds) > cap:
@@ -287,6 +291,16 @@ def _slope_stats(bound) -> dict | None:
     if bound is None:
         return None
     return {"value": bound.value, "proven": bound.proven}
+
+
+def _fine_stats(pipeline: FacetPipeline) -> dict | None:
+    """What ``stats["fine_clearing"]`` says of the core's finer clearing level
+    (:mod:`rdmesh.sampling.fine_clearing`): cubes filled and segments they
+    cleared, None without one."""
+    if pipeline.fine is None:
+        return None
+    cubes, cleared = pipeline.rdt.fine_clearing_stats
+    return {"cubes": int(cubes), "cleared": int(cleared)}
 
 
 def _distance_stats(plan: Plan) -> dict | None:
@@ -436,6 +450,7 @@ def _result(
         facets_evaluated=m.pipeline.evaluated,
         facets_reused=m.pipeline.rdt.reused_facets,
         facets_cleared=m.pipeline.rdt.cleared_facets,
+        fine_clearing=_fine_stats(m.pipeline),
         slope_bound=_slope_stats(m.pipeline.slope),
         distance_check=_distance_stats(plan),
         exact_circumcentres=m.pipeline.rdt.exact_circumcentres,

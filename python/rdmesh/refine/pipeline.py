@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import core
 from ..sampling.boundary import BOUNDARY_ANGLE_FLOOR
+from ..sampling.fine_clearing import FineClearing
 from ..sampling.grid import check_sphere_ends
 from ..sampling.screen import SlopeBound
 from ..surfaces.oracle import ImplicitSurface
@@ -90,6 +91,8 @@ class FacetPipeline:
         self.failed = 0
         #: A bound on |grad f| that thins the segments' samples, or None.
         self.slope: SlopeBound | None = None
+        #: Fills the core's finer clearing level where the grid clears too little.
+        self.fine: FineClearing | None = None
         self._worker = ThreadPoolExecutor(1, thread_name_prefix="rdmesh-core")
         #: Evaluates the slices of a chunk at once (workers > 1).
         self._pool = (
@@ -150,6 +153,10 @@ class FacetPipeline:
                 tri, seg, end_index, ends, rho, samples, f_ends, prev = job.result()
             if len(tri) == 0:
                 break
+            if self.fine is not None:
+                # The worker is idle: its update jobs ran before this chunk was made.
+                with timed("fine_clearing"):
+                    self.fine.refine()
             job = self._worker.submit(changed, CORE_CHUNK, **sampling)
             with timed("evaluate"):
                 bound = None if self.slope is None else self.slope.for_segments(seg)

@@ -21,7 +21,8 @@ are not halved.
 Most dual segments lie far from the surface. The core clears those before
 handing them out (:func:`clear_in_core`): a segment within distance ``D`` of a
 grid node where ``|f| > L D`` has no zero, so its facet is not restricted, and
-neither its ends nor its samples are evaluated."""
+neither its ends nor its samples are evaluated. Where the grid clears too little
+(about a thin part's core) :mod:`rdmesh.sampling.fine_clearing` adds a finer level."""
 
 from __future__ import annotations
 
@@ -63,6 +64,8 @@ class SlopeField:
 
     def __init__(self, values: np.ndarray, h: float, centre, rotation, offset, within) -> None:
         node = node_slopes(values, h)
+        #: Each node's own estimate, flat in C order (the fine clearing's floor).
+        self.node_slopes = node.ravel()
         inside = node[within]
         self.in_ball = float(inside.max()) if inside.size else 0.0
         near = ndimage.maximum_filter(node, size=2 * FIELD_CELLS + 1, mode="nearest")
@@ -79,6 +82,7 @@ class SlopeField:
         each node (a grid that skips nodes knows only that much there)."""
         field = cls.__new__(cls)
         field.in_ball, field.h = float(lip), float(h)
+        field.node_slopes = np.full(lower.size, float(lip))
         field.grid = core.GridField(np.full(lower.shape, float(lip)), centre, rotation, offset, h)
         field.values = core.GridField(lower, centre, rotation, offset, h)
         return field
@@ -126,14 +130,16 @@ class SlopeBound:
             self.field.grid.raise_to(mid, steep[over], FIELD_CELLS)
 
 
-def clear_in_core(rdt: core.RestrictedDelaunay, bound: SlopeBound | None) -> None:
+def clear_in_core(rdt: core.RestrictedDelaunay, bound: SlopeBound | None) -> bool:
     """Let the core clear, without handing them out, the facets whose
     segment lies near a grid node with ``|f|`` above the bound times the
     node's distance to every point of it (with a proven bound, ``|f|`` at a
-    node is a proven lower bound: :meth:`SlopeField.proven`)."""
-    if bound is not None and bound.field is not None:
-        field = bound.field
-        rdt.set_clearing(field.values, field.grid, SAFETY, REACH * field.h, bound.value)
+    node is a proven lower bound: :meth:`SlopeField.proven`); whether it can."""
+    if bound is None or bound.field is None:
+        return False
+    field = bound.field
+    rdt.set_clearing(field.values, field.grid, SAFETY, REACH * field.h, bound.value)
+    return True
 
 
 def slope_bound(surface: ImplicitSurface, field: SlopeField | None) -> SlopeBound | None:
