@@ -124,6 +124,10 @@ def test_sheet_gap_measures_the_thinnest_part():
     rep = ms.input_report(pts)
     assert rep["close_sheets"]["points"] == 2 and not rep["incomplete"]
     assert "nearly touch" in rep["statement"]
+    # Sheets far closer than the probes' step (about 4e-4 here) are measured too.
+    thin = corners * np.array([1.0, 1.0, 0.01])
+    gap = rdmesh.MeshSurface((thin, faces)).sheet_gap(pts * np.array([1.0, 1.0, 0.01]))
+    np.testing.assert_allclose(gap, 0.0002, rtol=1e-3)
     # Away from thin parts the gap is the cap, 2 x CLOSE_SHEETS x R, and nothing is said.
     ball = rdmesh.MeshSurface(sphere_mesh((0, 0, 0), 1.0))
     assert ball.input_report(np.array([[1.0, 0.0, 0.0]])) is None

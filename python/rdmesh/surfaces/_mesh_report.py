@@ -19,8 +19,9 @@ log = logging.getLogger("rdmesh")
 
 #: Two sheets closer than this (times R) where points were refused are reported.
 CLOSE_SHEETS = 0.02
-#: Probes along the normal that measure the gap between sheets.
-GAP_SAMPLES = 64
+#: Probes along the normal that bracket the gap between sheets, then
+#: bisections of the bracket (to 2^-20 of a probe step).
+GAP_SAMPLES, GAP_BISECTIONS = 64, 20
 
 
 class MeshReport:
@@ -110,16 +111,34 @@ class MeshReport:
         """Distance across the thinnest part (inside or outside) of the input at
         points on it, ``(k,)``: twice the distance from the point to the
         medial axis along the closest face's normal, sampled up to
-        ``CLOSE_SHEETS * R`` (that value where it is farther)."""
+        ``CLOSE_SHEETS * R`` and bisected (``2 CLOSE_SHEETS R`` where it is
+        farther)."""
         closest, face = self.closest_points(points)
         n = self._normals[face]
-        t = np.linspace(0.0, CLOSE_SHEETS * self.radius, GAP_SAMPLES + 1)[1:]
+        cap = CLOSE_SHEETS * self.radius
+        t = np.linspace(0.0, cap, GAP_SAMPLES + 1)[1:]
         gaps = []
         for sign in (1.0, -1.0):
             probe = closest[None] + sign * t[:, None, None] * n[None]
             d = np.abs(self.signed_distance(probe.reshape(-1, 3))).reshape(len(t), -1)
-            # Beyond the medial axis the distance falls below the probe's offset.
-            behind = d < t[:, None] * (1 - 1e-6)
-            first = np.where(behind.any(axis=0), np.argmax(behind, axis=0), len(t) - 1)
-            gaps.append(2.0 * t[first])
+            found = _behind(d, t[:, None]).any(axis=0)
+            first = np.argmax(_behind(d, t[:, None]), axis=0)
+            hi = np.where(found, t[first], cap)
+            lo = np.where(found & (first > 0), t[np.maximum(first - 1, 0)], 0.0)
+            # The samples only bracket the medial axis; bisect to its offset
+            # (touching sheets would otherwise all read as one sample step).
+            at = np.flatnonzero(found)
+            for _ in range(GAP_BISECTIONS):
+                mid = 0.5 * (lo[at] + hi[at])
+                dm = np.abs(self.signed_distance(closest[at] + sign * mid[:, None] * n[at]))
+                past = _behind(dm, mid)
+                hi[at] = np.where(past, mid, hi[at])
+                lo[at] = np.where(past, lo[at], mid)
+            gaps.append(2.0 * hi)
         return np.minimum(*gaps)
+
+
+def _behind(d: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """Probes past the medial axis: there the distance to the mesh falls below
+    the probe's offset from the surface."""
+    return d < offset * (1 - 1e-6)
