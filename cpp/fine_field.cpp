@@ -32,18 +32,15 @@ bool FineField::clears(const double* a, const double* b, double cap) {
   const double len = std::sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) +
                                (b[2] - a[2]) * (b[2] - a[2]));
   if (!(len <= reach_)) return false;
-  // The subcube holding the middle, and its centre in grid coordinates.
-  const auto& n = coarse_.shape();
-  std::array<std::int64_t, 3> ijk{node / (n[1] * n[2]), (node / n[2]) % n[1], node % n[2]};
-  std::array<double, 3> u;
+  // The subcube holding the middle.
+  std::array<std::int64_t, 3> s;
   std::size_t sub = 0;
   for (int k = 0; k < 3; ++k) {
-    const double s = std::floor((t[k] + 0.5) * m_);
-    const std::int64_t si = std::clamp<std::int64_t>(static_cast<std::int64_t>(s), 0, m_ - 1);
-    u[k] = static_cast<double>(ijk[k]) - 0.5 + (static_cast<double>(si) + 0.5) / m_;
-    sub = sub * static_cast<std::size_t>(m_) + static_cast<std::size_t>(si);
+    s[k] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor((t[k] + 0.5) * m_)), 0,
+                                    m_ - 1);
+    sub = sub * static_cast<std::size_t>(m_) + static_cast<std::size_t>(s[k]);
   }
-  const auto x = coarse_.point_at(u);
+  const auto x = coarse_.point_at(centre(node, s));
   const double dm = std::sqrt((mid[0] - x[0]) * (mid[0] - x[0]) +
                               (mid[1] - x[1]) * (mid[1] - x[1]) +
                               (mid[2] - x[2]) * (mid[2] - x[2]));
@@ -70,20 +67,24 @@ std::vector<double> FineField::points(const std::vector<std::int64_t>& nodes) co
   out.reserve(nodes.size() * 3 * static_cast<std::size_t>(m_ * m_ * m_));
   for (std::int64_t node : nodes) {
     if (node < 0 || node >= total) throw std::invalid_argument("node off the grid");
-    const std::array<std::int64_t, 3> ijk{node / (n[1] * n[2]), (node / n[2]) % n[1],
-                                          node % n[2]};
-    for (int i = 0; i < m_; ++i)
-      for (int j = 0; j < m_; ++j)
-        for (int k = 0; k < m_; ++k) {
-          const int s[3] = {i, j, k};
-          std::array<double, 3> u;
-          for (int a = 0; a < 3; ++a)
-            u[a] = static_cast<double>(ijk[a]) - 0.5 + (static_cast<double>(s[a]) + 0.5) / m_;
-          const auto x = coarse_.point_at(u);
+    for (std::int64_t i = 0; i < m_; ++i)
+      for (std::int64_t j = 0; j < m_; ++j)
+        for (std::int64_t k = 0; k < m_; ++k) {
+          const auto x = coarse_.point_at(centre(node, {i, j, k}));
           out.insert(out.end(), x.begin(), x.end());
         }
   }
   return out;
+}
+
+std::array<double, 3> FineField::centre(std::int64_t node,
+                                        const std::array<std::int64_t, 3>& s) const {
+  const auto& n = coarse_.shape();
+  const std::array<std::int64_t, 3> ijk{node / (n[1] * n[2]), (node / n[2]) % n[1], node % n[2]};
+  std::array<double, 3> u;
+  for (int a = 0; a < 3; ++a)
+    u[a] = static_cast<double>(ijk[a]) - 0.5 + (static_cast<double>(s[a]) + 0.5) / m_;
+  return u;
 }
 
 void FineField::fill(const std::vector<std::int64_t>& nodes, const double* values,

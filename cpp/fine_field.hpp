@@ -40,6 +40,9 @@ class FineField {
   std::uint64_t cleared() const { return cleared_; }
 
  private:
+  // Grid coordinates of node's subcube s (per axis, 0..m-1) centre.
+  std::array<double, 3> centre(std::int64_t node, const std::array<std::int64_t, 3>& s) const;
+
   GridField coarse_;
   int m_;
   std::uint32_t threshold_;

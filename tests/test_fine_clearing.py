@@ -53,6 +53,14 @@ def _proven_core(threshold):
     return rdt, field
 
 
+def _hot_core(seed, k):
+    """A core that has seen ``k`` short segments, each node hot at its first miss."""
+    rdt, _ = _proven_core(threshold=1)
+    seg = _short_segments(np.random.default_rng(seed), k, 0.5 * H)
+    rdt.grid_clears(seg)
+    return rdt, seg, rdt.take_hot_nodes()
+
+
 def test_filled_cubes_clear_more_and_only_segments_without_a_zero():
     rng = np.random.default_rng(5)
     rdt, _ = _proven_core(threshold=3)
@@ -81,21 +89,13 @@ def test_filled_cubes_clear_more_and_only_segments_without_a_zero():
 
 def test_a_bound_below_the_slope_clears_segments_that_cross():
     # The check above can fail: with a bound of 0.01 the cubes clear crossing segments.
-    rng = np.random.default_rng(6)
-    rdt, _ = _proven_core(threshold=1)
-    seg = _short_segments(rng, 20000, 0.5 * H)
-    rdt.grid_clears(seg)
-    hot = rdt.take_hot_nodes()
+    rdt, seg, hot = _hot_core(6, 20000)
     rdt.fill_fine(hot, _sphere_sdf(rdt.fine_points(hot)), np.full(len(hot), 0.01))
     assert (rdt.grid_clears(seg) & _has_zero(seg)).any()
 
 
 def test_long_segments_and_nan_values_are_not_cleared_by_the_cubes():
-    rng = np.random.default_rng(7)
-    rdt, _ = _proven_core(threshold=1)
-    seg = _short_segments(rng, 5000, 0.5 * H)
-    rdt.grid_clears(seg)
-    hot = rdt.take_hot_nodes()
+    rdt, seg, hot = _hot_core(7, 5000)
     points = rdt.fine_points(hot)
     rdt.fill_fine(hot, np.full(len(points), np.nan), np.ones(len(hot)))
     before = rdt.fine_clearing_stats[1]

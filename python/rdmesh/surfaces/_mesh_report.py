@@ -121,8 +121,9 @@ class MeshReport:
         for sign in (1.0, -1.0):
             probe = closest[None] + sign * t[:, None, None] * n[None]
             d = np.abs(self.signed_distance(probe.reshape(-1, 3))).reshape(len(t), -1)
-            found = _behind(d, t[:, None]).any(axis=0)
-            first = np.argmax(_behind(d, t[:, None]), axis=0)
+            behind = _behind(d, t[:, None])
+            found = behind.any(axis=0)
+            first = np.argmax(behind, axis=0)
             hi = np.where(found, t[first], cap)
             lo = np.where(found & (first > 0), t[np.maximum(first - 1, 0)], 0.0)
             # The samples only bracket the medial axis; bisect to its offset
