@@ -248,22 +248,52 @@ def test_a_job_whose_worker_died_before_it_started_is_sent_again_a_few_times():
     runner = _Runner(None, [Task(0, "victim", None)], [None], recorded.append)
     for attempt in range(UNSTARTED_RETRIES):
         runner.pending.clear()
-        runner.running[Died()] = _Running(0, time.monotonic(), attempt=attempt)
-        runner._collect(next(iter(runner.running)))
+        runner._threads_at = time.monotonic()
+        runner._collect(Died(), _Running(0, time.monotonic(), attempt=attempt))
         assert list(runner.pending) == [0] and runner.attempts == [attempt + 1]
         assert recorded == []
+        assert runner._threads_at is None  # the cluster's size is asked again
     runner.pending.clear()
-    runner.running[Died()] = _Running(0, time.monotonic(), attempt=UNSTARTED_RETRIES)
-    runner._collect(next(iter(runner.running)))
+    runner._collect(Died(), _Running(0, time.monotonic(), attempt=UNSTARTED_RETRIES))
     assert [r.status for r in recorded] == ["failed"] and not runner.pending
     assert "worker process died" in recorded[0].error
     # A job that had started is not sent again: it may be what killed its worker.
     recorded.clear()
     runner._starts[Died.key] = (time.monotonic(), "tcp://worker")
-    runner.running[Died()] = _Running(0, time.monotonic())
-    runner._collect(next(iter(runner.running)))
+    runner._collect(Died(), _Running(0, time.monotonic()))
     assert [r.status for r in recorded] == ["failed"] and not runner.pending
     assert recorded[0].worker == "tcp://worker"
+
+
+def test_the_cluster_size_is_asked_at_most_once_per_ttl(monkeypatch):
+    from types import SimpleNamespace
+
+    from rdmesh.batch import runner as R
+
+    class Cluster:
+        asked = 0
+
+        def nthreads(self):
+            Cluster.asked += 1
+            return {"tcp://a": 1, "tcp://b": 1}
+
+    clock = [100.0]
+    monkeypatch.setattr(R, "time", SimpleNamespace(monotonic=lambda: clock[0]))
+    runner = R._Runner(Cluster(), [], [], lambda _: None)
+    assert [runner._capacity() for _ in range(5)] == [2] * 5 and Cluster.asked == 1
+    clock[0] += R.CAPACITY_TTL / 2
+    assert runner._capacity() == 2 and Cluster.asked == 1
+    clock[0] += R.CAPACITY_TTL
+    assert runner._capacity() == 2 and Cluster.asked == 2
+
+
+def test_the_local_cluster_runs_its_workers_without_dask_profiler():
+    from rdmesh.batch.runner import _cluster
+
+    with _cluster(None, 1, "1GiB") as c:
+        profiled = c.run(lambda dask_worker: "profile" in dask_worker.periodic_callbacks)
+        config = c.run(lambda: dask.config.get("distributed.worker.profile.enabled"))
+    assert list(profiled.values()) == [False] and list(config.values()) == [False]
 
 
 def test_the_default_hard_timeout_follows_the_time_limit():

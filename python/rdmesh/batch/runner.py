@@ -4,7 +4,10 @@ The client side. It keeps at most as many jobs in flight as the cluster has
 worker threads, so that a job never waits on a worker behind another: a
 worker that dies then takes only its own job down, and a job's hard timeout
 runs from the moment it starts (each job announces its start through the
-scheduler's events). Dask schedules; nothing here chooses a worker.
+scheduler's events). A freed worker's next job is sent before the results
+are fetched, and the cluster's size is asked at most once a second, so that a
+worker waits one round trip between jobs. Dask schedules; nothing here chooses
+a worker.
 """
 
 from __future__ import annotations
@@ -40,14 +43,17 @@ HARD_TIMEOUT_MARGIN = 30.0
 #: it: it waited there behind another job, as can happen while a worker restarts) is
 #: sent again. A job whose start was announced is never sent again.
 UNSTARTED_RETRIES = 3
-#: Jobs in flight per worker thread beyond the one it runs. 1 lets a worker start
+#: Jobs in flight per worker thread beyond the one it runs. 1 let a worker start
 #: its next job without the client's round trip (busy 97 % instead of 92 %), but
-#: on 2 cores it gained no wall time (benchmarks/batch_ahead.py: the workers' CPU
-#: grew as much), and a job queued behind a long one waits while another worker
-#: may be free. So 0.
+#: on 2 cores it gained no wall time (benchmarks/batch_ahead.py, before the next
+#: job was sent ahead of fetching results), and a job queued behind a long one
+#: waits while another worker may be free. So 0.
 AHEAD = 0
 #: Seconds between checks of the hard timeouts and of the cluster's size.
 POLL = 0.25
+#: Seconds the cluster's thread count is reused before it is asked again (one
+#: round trip to the scheduler, which would otherwise delay every next job).
+CAPACITY_TTL = 1.0
 #: Give up on the jobs left when the cluster has had no worker for this long.
 NO_WORKERS_TIMEOUT = 300.0
 #: Seconds a restarted worker's nanny gets to end the old process.
@@ -255,6 +261,9 @@ def _cluster(client: Any, n_workers: int | None, memory_limit: Any) -> Iterator[
     settings = {
         "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
         "distributed.nanny.pre-spawn-environ": environ,
+        # The workers' statistical profiler samples every thread 100 times a second,
+        # taking the GIL from the job; nothing here reads its profiles.
+        "distributed.worker.profile.enabled": False,
     }
     with dask.config.set(settings):
         cluster = LocalCluster(
@@ -308,6 +317,8 @@ class _Runner:
         self._lock = threading.Lock()
         self._starts: dict[str, tuple[float, str]] = {}
         self._empty_since: float | None = None
+        self._threads = 0
+        self._threads_at: float | None = None
 
     # -- the loop -------------------------------------------------------------------
 
@@ -327,8 +338,13 @@ class _Runner:
                         )
                     except TimeoutError:
                         done = set()
-                    for future in done:
-                        self._collect(future)
+                    ended = [(future, self.running.pop(future)) for future in done]
+                    # The freed workers get their next jobs before these results are
+                    # fetched: each fetch is a round trip they would otherwise wait for.
+                    if ended:
+                        self._submit()
+                    for future, run in ended:
+                        self._collect(future, run)
                 self._enforce_hard_timeouts()
                 _check_workers(self)
         finally:
@@ -350,7 +366,13 @@ class _Runner:
             self._starts[msg["key"]] = (time.monotonic(), msg["worker"])
 
     def _capacity(self) -> int:
-        return sum(self.client.nthreads().values())
+        """The cluster's worker threads, asked of the scheduler at most every
+        CAPACITY_TTL seconds (and after a worker died)."""
+        now = time.monotonic()
+        if self._threads_at is None or now - self._threads_at > CAPACITY_TTL:
+            self._threads = sum(self.client.nthreads().values())
+            self._threads_at = now
+        return self._threads
 
     # -- submitting and collecting ----------------------------------------------------
 
@@ -380,15 +402,15 @@ class _Runner:
             self.running[future] = _Running(i, time.monotonic(), self.attempts[i])
             free -= 1
 
-    def _collect(self, future: Any) -> None:
+    def _collect(self, future: Any, run: _Running) -> None:
         from distributed import KilledWorker
 
-        run = self.running.pop(future)
         task = self.tasks[run.index]
         self._started(future, run)
         try:
             result = future.result()
         except KilledWorker as exc:
+            self._threads_at = None  # the cluster has lost a worker, for now
             if run.started is None and run.attempt < UNSTARTED_RETRIES:
                 log.info("job %d (%s): its worker died before it started; again", run.index,
                          task.name)  # fmt: skip
@@ -432,6 +454,7 @@ class _Runner:
                 )
             )
             _restart(self.client, run.worker)
+            self._threads_at = None
 
 
 def _address(exc: Any) -> str | None:
