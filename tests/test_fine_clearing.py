@@ -151,10 +151,11 @@ def test_estimated_bounds_take_the_steepest_slope_seen():
 
     fine = FineClearing(rdt, f, SlopeBound(SAFETY * 3.0, False, field))
     nodes = np.array([100, 2000])
-    bounds = fine._bounds(nodes, f(rdt.fine_points(nodes)))
+    points = rdt.fine_points(nodes)
+    bounds = fine._bounds(nodes, f(points))
     np.testing.assert_allclose(bounds, SAFETY * 3.0)
     proven = FineClearing(rdt, f, SlopeBound(7.0, True, field))
-    np.testing.assert_array_equal(proven._bounds(nodes, f(rdt.fine_points(nodes))), 7.0)
+    np.testing.assert_array_equal(proven._bounds(nodes, f(points)), 7.0)
     assert fine_clearing.fine_clearing(rdt, f, None) is None
     assert fine_clearing.fine_clearing(rdt, f, SlopeBound(1.0, True, None)) is None
 
@@ -174,3 +175,49 @@ def test_thin_torus_mesh_unchanged_with_fewer_evaluations(monkeypatch):
     np.testing.assert_array_equal(on.vertices, off.vertices)
     np.testing.assert_array_equal(on.faces, off.faces)
     assert on.stats["evaluations"] < off.stats["evaluations"]
+
+
+def test_a_local_proven_bound_is_used_for_the_cube():
+    # A surface with gradient_bound (a volume) bounds each cube itself: the
+    # bound it gives for the node's box, whatever the slopes seen; a cube
+    # whose bound is over WORTH x the grid's estimate is not filled at all.
+    values = 3.0 * _nodes()[:, 0].reshape(N, N, N)
+    field = SlopeField(values, H, np.zeros(3), np.eye(3), OFFSET, np.ones((N, N, N), bool))
+    rdt = core.RestrictedDelaunay(np.zeros(3), 2.0)
+    rdt.set_clearing(field.values, field.grid, SAFETY, 2 * H, 100.0)
+    asked = []
+    estimate = SAFETY * field.node_slopes.ravel()
+
+    class Local:
+        evaluated = 0
+
+        def __call__(self, p):
+            Local.evaluated += len(p)
+            return 3.0 * p[:, 0]
+
+        def gradient_bound(self, centres, radius):
+            asked.append((centres, radius))
+            # Within the worth at the first node, above it at the second.
+            return np.array([1.0, 1.01 * fine_clearing.WORTH]) * estimate[nodes]
+
+    fine = FineClearing(rdt, Local(), SlopeBound(SAFETY * 3.0, False, field))
+    nodes = np.array([100, 2000])
+    points = rdt.fine_points(nodes)
+    assert fine._local_bounds(nodes, points) is not None
+    [(centres, radius)] = asked
+    # The centres are the nodes' (their subcubes' centres' mean), the box covers the cube.
+    np.testing.assert_allclose(centres, points.reshape(2, -1, 3).mean(axis=1))
+    reach = fine_clearing.FINE_REACH
+    assert radius == fine_clearing.CUBE_REACH * H >= (np.sqrt(3) / 2 + reach / 2) * H
+    # Filling: only the first node's cube, with its own bound.
+    fill = []
+    rdt_fill = rdt.fill_fine
+    fine.rdt = type("Core", (), {
+        "take_hot_nodes": lambda self: nodes,
+        "fine_points": lambda self, n: rdt.fine_points(n),
+        "fill_fine": lambda self, n, v, b: fill.append((n, v, b)) or rdt_fill(n, v, b),
+    })()  # fmt: skip
+    assert fine.refine() == 1
+    [(filled, v, b)] = fill
+    assert filled.tolist() == [100] and Local.evaluated == SUBDIVISIONS**3
+    np.testing.assert_allclose(b, estimate[[100]])

@@ -389,3 +389,28 @@ def test_larger_phantom_both_methods(method):
         volumes.PHANTOM_EULER
     )
     assert mesh.report["tbp_holds"]
+
+
+@pytest.mark.parametrize("interpolation", ["cubic", "linear"])
+@pytest.mark.parametrize("border", ["closed", "clipped"])
+def test_gradient_bound_holds_in_each_box(interpolation, border):
+    # Noise is the hard case: steep, changing slopes everywhere. Boxes reach
+    # past the volume too (the gradient of the nearest box point holds there).
+    rng = np.random.default_rng(7)
+    vol = 3.0 * rng.random((13, 17, 11))
+    s = rdmesh.VolumeSurface(
+        vol, isovalue=1.5, interpolation=interpolation, border=border,
+        spacing=(0.5, 1.0, 2.0), origin=(1.0, 2.0, 3.0),
+    )  # fmt: skip
+    lo, hi = s.box
+    centres = rng.uniform(lo - 1.0, hi + 1.0, size=(150, 3))
+    radius = 0.7
+    bound = s.gradient_bound(centres, radius)
+    points = centres[:, None, :] + rng.uniform(-radius, radius, size=(150, 300, 3))
+    slopes = np.linalg.norm(s.grad(points.reshape(-1, 3)), axis=1).reshape(150, 300)
+    ratio = (slopes / bound[:, None]).max()
+    assert ratio <= 1.0
+    if border == "closed":
+        assert np.all(bound >= 1.0)  # the box's distance is 1-Lipschitz
+    if interpolation == "linear":
+        assert ratio > 0.5  # not a loose bound: the steepest slope comes close

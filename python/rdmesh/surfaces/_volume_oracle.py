@@ -13,6 +13,12 @@ from collections.abc import Callable
 
 import numpy as np
 
+#: Samples per block side of the slope tables behind :meth:`VolumeOracle.gradient_bound`.
+BOUND_BLOCK = 4
+#: Coefficients beyond a point's cell that its value and gradient may read
+#: (cubic: one below and two above the cell, mirrored at the ends; 2 covers both).
+_SUPPORT = 2
+
 
 class VolumeOracle:
     """Values, gradients and ``f`` of an interpolated volume closed (or clipped) by its box.
@@ -83,6 +89,59 @@ class VolumeOracle:
         g[rows, axis] = sign[rows, axis]
         return g
 
+    # -- a proven slope bound -------------------------------------------------------
+
+    def gradient_bound(self, centres: np.ndarray, radius: float) -> np.ndarray:
+        """A proven bound on ``|grad f|`` in the axis-aligned box of half-side
+        ``radius`` about each of ``(k, 3)`` centres, ``(k,)``.
+
+        Along each axis the interpolant's derivative is a weighted mean
+        (nonnegative weights summing to 1: the B-spline of one degree lower
+        times the others) of the differences of neighbouring coefficients, so
+        it is at most their largest size among those a point reads; outside
+        the box the gradient is that of the nearest box point or less. The
+        largest sizes come from tables of block maxima, so the bound may
+        take in a few more coefficients than the box reads. With the box
+        closing the surface, ``f`` is the larger of ``f_volume`` and the
+        box's distance (1-Lipschitz), so the bound is at least 1.
+        """
+        c = np.asarray(centres, dtype=np.float64).reshape(-1, 3)
+        n = np.asarray(self.shape, dtype=np.int64)
+        spacing, origin = np.asarray(self.spacing), np.asarray(self.origin)
+        with np.errstate(invalid="ignore"):
+            lo = np.floor((c - radius - origin) / spacing)
+            hi = np.floor((c + radius - origin) / spacing)
+        # NaN centres take the whole volume.
+        lo = np.where(np.isnan(lo), 0, np.clip(lo, 0, n - 2)).astype(np.int64) - _SUPPORT
+        hi = np.where(np.isnan(hi), n, np.clip(hi, 0, n - 2)).astype(np.int64) + _SUPPORT
+        square = np.zeros(len(c))
+        for axis, table in enumerate(self._slope_tables()):
+            top = n - 1
+            top[axis] -= 1  # differences along this axis: one fewer
+            a, b = np.clip(lo, 0, top) // BOUND_BLOCK, np.clip(hi, 0, top) // BOUND_BLOCK
+            width = tuple(int(w) for w in (b - a).max(axis=0) + 1) if len(c) else (1, 1, 1)
+            steep = _window_max(table, width)[a[:, 0], a[:, 1], a[:, 2]]
+            square += (steep / spacing[axis]) ** 2
+        bound = np.sqrt(square) / self.value_scale
+        return bound if self.border == "clipped" else np.maximum(bound, 1.0)
+
+    def _slope_tables(self) -> list[np.ndarray]:
+        """Per axis, the largest ``|c[i + 1] - c[i]|`` of the coefficients in
+        each block of ``BOUND_BLOCK^3`` (made on first use, then kept)."""
+        tables = getattr(self, "_slopes", None)
+        if tables is None:
+            coefficients = self._sampler.coefficients()
+            tables = []
+            for axis in range(3):
+                d = np.abs(np.diff(coefficients, axis=axis))
+                for k in range(3):
+                    starts = np.arange(0, d.shape[k], BOUND_BLOCK)
+                    d = np.maximum.reduceat(d, starts, axis=k)
+                tables.append(d)
+            del coefficients
+            self._slopes = tables
+        return tables
+
     # -- the oracle -----------------------------------------------------------------
 
     def _border_oracle(
@@ -112,3 +171,17 @@ class VolumeOracle:
         box = self.box_distance(points) > fv
         gv[box] = self.box_gradient(points[box])
         return gv
+
+
+def _window_max(table: np.ndarray, width: tuple[int, int, int]) -> np.ndarray:
+    """``out[i, j, k]``: the largest of ``table[i : i + wi, j : j + wj, k : k + wk]``."""
+    out = table
+    for axis, w in enumerate(width):
+        acc = out.copy()
+        for shift in range(1, w):
+            head = [slice(None)] * 3
+            tail = [slice(None)] * 3
+            head[axis], tail[axis] = slice(0, -shift), slice(shift, None)
+            np.maximum(acc[tuple(head)], out[tuple(tail)], out=acc[tuple(head)])
+        out = acc
+    return out
