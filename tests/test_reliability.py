@@ -263,14 +263,16 @@ def test_ctrl_c_while_the_core_settles_is_held_to_the_end():
     """A Ctrl-C during the wait for the core's worker must not land inside
     concurrent.futures (it could leave a future's lock taken: a hang); it is
     raised once the wait is over."""
-    import os
     import signal
+    import threading
 
     from rdmesh.refine.pipeline import _ctrl_c_deferred
 
     reached = []
     with pytest.raises(KeyboardInterrupt), _ctrl_c_deferred():
-        os.kill(os.getpid(), signal.SIGINT)
+        # To this thread: sent to the process, the signal may be taken by another
+        # thread (Dask's, from earlier tests) and reach Python after the block.
+        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
         for _ in range(1000):  # the handler runs between bytecodes
             pass
         reached.append(True)
@@ -279,8 +281,8 @@ def test_ctrl_c_while_the_core_settles_is_held_to_the_end():
 
 
 def test_ctrl_c_while_settling_after_ctrl_c_is_not_raised_twice():
-    import os
     import signal
+    import threading
 
     from rdmesh.refine.pipeline import _ctrl_c_deferred
 
@@ -289,7 +291,7 @@ def test_ctrl_c_while_settling_after_ctrl_c_is_not_raised_twice():
             raise KeyboardInterrupt("first")
         except KeyboardInterrupt:
             with _ctrl_c_deferred():
-                os.kill(os.getpid(), signal.SIGINT)
+                signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
                 for _ in range(1000):
                     pass
             raise

@@ -345,7 +345,7 @@ class _Runner:
                         self._submit()
                     for future, run in ended:
                         self._collect(future, run)
-                self._enforce_hard_timeouts()
+                _enforce_hard_timeouts(self)
                 _check_workers(self)
         finally:
             if self.running:  # interrupted: leave nothing behind on the cluster
@@ -430,31 +430,34 @@ class _Runner:
             if start is not None:
                 run.started, run.worker = start
 
-    # -- the hard timeout and the cluster's health -------------------------------------
 
-    def _enforce_hard_timeouts(self) -> None:
-        now = time.monotonic()
-        for future, run in list(self.running.items()):
-            self._started(future, run)
-            limit = self.limits[run.index]
-            if limit is None or run.started is None or now - run.started <= limit:
-                continue
-            del self.running[future]
-            future.cancel()
-            task = self.tasks[run.index]
-            what = f"no answer within its hard timeout of {limit:g} s"
-            self._record(
-                JobResult(
-                    run.index,
-                    task.name,
-                    "failed",
-                    error=f"{what}; its worker {run.worker} was restarted",
-                    seconds=now - run.started,
-                    worker=run.worker,
-                )
+# -- the hard timeout and the cluster's health ---------------------------------------
+
+
+def _enforce_hard_timeouts(r: _Runner) -> None:
+    """Fail the jobs past their hard timeout and restart their workers."""
+    now = time.monotonic()
+    for future, run in list(r.running.items()):
+        r._started(future, run)
+        limit = r.limits[run.index]
+        if limit is None or run.started is None or now - run.started <= limit:
+            continue
+        del r.running[future]
+        future.cancel()
+        task = r.tasks[run.index]
+        what = f"no answer within its hard timeout of {limit:g} s"
+        r._record(
+            JobResult(
+                run.index,
+                task.name,
+                "failed",
+                error=f"{what}; its worker {run.worker} was restarted",
+                seconds=now - run.started,
+                worker=run.worker,
             )
-            _restart(self.client, run.worker)
-            self._threads_at = None
+        )
+        _restart(r.client, run.worker)
+        r._threads_at = None
 
 
 def _address(exc: Any) -> str | None:

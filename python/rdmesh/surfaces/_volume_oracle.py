@@ -100,8 +100,9 @@ class VolumeOracle:
         times the others) of the differences of neighbouring coefficients, so
         it is at most their largest size among those a point reads; outside
         the box the gradient is that of the nearest box point or less. The
-        largest sizes come from tables of block maxima, so the bound may
-        take in a few more coefficients than the box reads. With the box
+        largest sizes come from tables of block maxima (made on first use,
+        then kept), so the bound may take in a few more coefficients than
+        the box reads. With the box
         closing the surface, ``f`` is the larger of ``f_volume`` and the
         box's distance (1-Lipschitz), so the bound is at least 1.
         """
@@ -114,8 +115,10 @@ class VolumeOracle:
         # NaN centres take the whole volume.
         lo = np.where(np.isnan(lo), 0, np.clip(lo, 0, n - 2)).astype(np.int64) - _SUPPORT
         hi = np.where(np.isnan(hi), n, np.clip(hi, 0, n - 2)).astype(np.int64) + _SUPPORT
+        if getattr(self, "_slopes", None) is None:
+            self._slopes = _slope_tables(self._sampler.coefficients())
         square = np.zeros(len(c))
-        for axis, table in enumerate(self._slope_tables()):
+        for axis, table in enumerate(self._slopes):
             top = n - 1
             top[axis] -= 1  # differences along this axis: one fewer
             a, b = np.clip(lo, 0, top) // BOUND_BLOCK, np.clip(hi, 0, top) // BOUND_BLOCK
@@ -124,23 +127,6 @@ class VolumeOracle:
             square += (steep / spacing[axis]) ** 2
         bound = np.sqrt(square) / self.value_scale
         return bound if self.border == "clipped" else np.maximum(bound, 1.0)
-
-    def _slope_tables(self) -> list[np.ndarray]:
-        """Per axis, the largest ``|c[i + 1] - c[i]|`` of the coefficients in
-        each block of ``BOUND_BLOCK^3`` (made on first use, then kept)."""
-        tables = getattr(self, "_slopes", None)
-        if tables is None:
-            coefficients = self._sampler.coefficients()
-            tables = []
-            for axis in range(3):
-                d = np.abs(np.diff(coefficients, axis=axis))
-                for k in range(3):
-                    starts = np.arange(0, d.shape[k], BOUND_BLOCK)
-                    d = np.maximum.reduceat(d, starts, axis=k)
-                tables.append(d)
-            del coefficients
-            self._slopes = tables
-        return tables
 
     # -- the oracle -----------------------------------------------------------------
 
@@ -171,6 +157,18 @@ class VolumeOracle:
         box = self.box_distance(points) > fv
         gv[box] = self.box_gradient(points[box])
         return gv
+
+
+def _slope_tables(coefficients: np.ndarray) -> list[np.ndarray]:
+    """Per axis, the largest ``|c[i + 1] - c[i]|`` of the coefficients in each
+    block of ``BOUND_BLOCK^3``."""
+    tables = []
+    for axis in range(3):
+        d = np.abs(np.diff(coefficients, axis=axis))
+        for k in range(3):
+            d = np.maximum.reduceat(d, np.arange(0, d.shape[k], BOUND_BLOCK), axis=k)
+        tables.append(d)
+    return tables
 
 
 def _window_max(table: np.ndarray, width: tuple[int, int, int]) -> np.ndarray:
