@@ -259,31 +259,45 @@ def test_ctrl_c_during_refinement_is_not_a_budget_stop():
     assert not m.complete and len(m.faces) > 0 and m.stats["rounds"] == 2
 
 
-def test_ctrl_c_while_the_core_settles_is_held_to_the_end():
+@pytest.fixture
+def python_sigint():
+    """Python's own SIGINT handler for the test, whatever an earlier test or
+    library left installed; the previous one is put back after."""
+    import signal
+
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+
+
+def _ctrl_c_to_this_thread() -> None:
+    """SIGINT to the main thread: sent to the process, another thread (Dask's,
+    from earlier tests) may take it, and it reaches Python after the block."""
+    import signal
+    import threading
+
+    signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+    for _ in range(1000):  # the handler runs between bytecodes
+        pass
+
+
+def test_ctrl_c_while_the_core_settles_is_held_to_the_end(python_sigint):
     """A Ctrl-C during the wait for the core's worker must not land inside
     concurrent.futures (it could leave a future's lock taken: a hang); it is
     raised once the wait is over."""
     import signal
-    import threading
 
     from rdmesh.refine.pipeline import _ctrl_c_deferred
 
     reached = []
     with pytest.raises(KeyboardInterrupt), _ctrl_c_deferred():
-        # To this thread: sent to the process, the signal may be taken by another
-        # thread (Dask's, from earlier tests) and reach Python after the block.
-        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
-        for _ in range(1000):  # the handler runs between bytecodes
-            pass
+        _ctrl_c_to_this_thread()
         reached.append(True)
     assert reached
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
-def test_ctrl_c_while_settling_after_ctrl_c_is_not_raised_twice():
-    import signal
-    import threading
-
+def test_ctrl_c_while_settling_after_ctrl_c_is_not_raised_twice(python_sigint):
     from rdmesh.refine.pipeline import _ctrl_c_deferred
 
     with pytest.raises(KeyboardInterrupt) as info:
@@ -291,9 +305,7 @@ def test_ctrl_c_while_settling_after_ctrl_c_is_not_raised_twice():
             raise KeyboardInterrupt("first")
         except KeyboardInterrupt:
             with _ctrl_c_deferred():
-                signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
-                for _ in range(1000):
-                    pass
+                _ctrl_c_to_this_thread()
             raise
     assert str(info.value) == "first"
 
