@@ -133,11 +133,17 @@ def check_features(
     )
 
 
-def repair_sites(mesh, angle: float) -> tuple[np.ndarray, np.ndarray]:
+def repair_sites(
+    mesh, angle: float, soft: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Where to shrink the balls of a mesh: the failed places of its feature
     check, and the ball centres of triangles below ``angle`` degrees.
     Returns ``(points (k, 3), radii (k,))``: each place and the radius about
-    it within which balls shrink."""
+    it within which balls shrink. Places whose nearest ball is one of the
+    ``soft`` balls (``(centres, is_soft)``: a volume's kink curves) are left
+    out: beside a thin wedge, smaller balls make the wedge thinner at their
+    edge, so refinement stops at the spacing floor in more places and the
+    angles next to them do not rise (measured: RESULTS.md, issue 30)."""
     f = mesh.features
     w = mesh.weights
     r_max = float(np.sqrt(w.max())) if w is not None and len(w) and w.max() > 0 else 0.0
@@ -150,4 +156,10 @@ def repair_sites(mesh, angle: float) -> tuple[np.ndarray, np.ndarray]:
         ids = np.unique(mesh.faces[hit])
         pts.append(mesh.vertices[ids])
         rad.append(2.0 * np.sqrt(w[ids]))
-    return np.concatenate(pts), np.concatenate(rad)
+    pts, rad = np.concatenate(pts), np.concatenate(rad)
+    if soft is not None and len(pts) and soft[1].any():
+        from scipy.spatial import cKDTree
+
+        _, j = cKDTree(soft[0]).query(pts)
+        pts, rad = pts[~soft[1][j]], rad[~soft[1][j]]
+    return pts, rad

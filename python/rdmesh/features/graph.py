@@ -28,7 +28,13 @@ class FeatureError(ValueError):
     """A feature curve is not usable: not an (m, 3) array of finite points,
     fewer than two distinct points, not on the surface, or crossing another
     curve (or itself) away from the curves' end points. The message names the
-    curve (``features[i]``)."""
+    curve (``features[i]``).
+
+    ``where`` is the ``(3,)`` place, when the error has one (protection)."""
+
+    def __init__(self, message: str, where: np.ndarray | None = None) -> None:
+        super().__init__(message)
+        self.where = None if where is None else np.asarray(where, dtype=np.float64)
 
 
 @dataclass

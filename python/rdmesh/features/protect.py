@@ -71,6 +71,8 @@ DENSITY = 8
 SHRINK = 0.6
 #: Repair rounds at most (CGAL: 29).
 MAX_LOOPS = 40
+#: Sheet samples within this fraction of the spacing of a curve point are on it.
+SAME_POINT = 1e-6
 #: Smallest spacing, times R: protection below it is refused.
 MIN_SIZE = 1e-6
 
@@ -196,11 +198,13 @@ def protect(
             raise FeatureError(
                 f"cannot protect the feature curves near {np.round(balls.centres[i], 9).tolist()}:"
                 f" the balls there would be smaller than {floor:.3g} (curves or corners too "
-                "close together, or meeting at too small an angle)"
+                "close together, or meeting at too small an angle)",
+                where=balls.centres[i],
             )
     raise FeatureError(
         f"protecting balls still break an invariant after {MAX_LOOPS} loops (curves or "
-        "corners too close together, or meeting at too small an angle)"
+        "corners too close together, or meeting at too small an angle)",
+        where=balls.centres[int(np.argmin(balls.radii))],
     )
 
 
@@ -477,7 +481,8 @@ def _place(graph, dense, edge_size, sheets, distance, shrink, floor) -> _State:
                 f"cannot protect {c.label or 'a feature curve'} near "
                 f"{np.round(d.x[k], 9).tolist()}: the balls there would be smaller than "
                 f"{floor:.3g} (another curve, a corner or another sheet of the surface is "
-                f"{h[k] / CURVE_GAP:.3g} away)"
+                f"{h[k] / CURVE_GAP:.3g} away)",
+                where=d.x[k],
             )
         h = _lipschitz(h, d.s, c.closed, c.length)
         if c.closed:
@@ -602,7 +607,10 @@ def _sheet_gap(x: np.ndarray, sheets, h: np.ndarray) -> np.ndarray:
     ok = j < len(pts)
     jj = np.minimum(j, len(pts) - 1)
     off = np.abs(np.einsum("ijk,ijk->ij", nrm[jj], pts[jj] - x[:, None, :]))
-    other = ok & (off > 0.5 * dist)
+    # A sample on the point itself (a grid line through a volume's kink
+    # curve) has no direction to judge: it is the curve's own.
+    own = dist <= SAME_POINT * np.where(np.isfinite(h), h, 0.0)[:, None]
+    other = ok & (off > 0.5 * dist) & ~own
     d = np.where(other, dist, np.inf)
     return SHEET_GAP * d.min(axis=1)
 

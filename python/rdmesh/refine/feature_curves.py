@@ -21,6 +21,7 @@ from ..features.graph import (
     given_curves,
 )
 from ..sampling.boundary import BoundaryCurve, project_onto_curve
+from ..surfaces.trilinear_kinks import KINK_SOURCE, kink_curves
 
 #: A given curve's points must lie within this of the surface (|f| / |grad f|), times R.
 ON_SURFACE = 1e-6
@@ -193,9 +194,59 @@ def feature_graph(
     if volume_curve is not None:
         more, extra = volume_box_curves(surface, volume_curve)
         curves += more
+    if getattr(surface, "interpolation", None) == "linear":
+        curves += kink_curves(surface)
     if not curves and not len(extra):
         return FeatureGraph()
     return build_graph(curves, R, extra)
+
+
+#: Kink curves within this many grid spacings of a place that cannot be
+#: protected are left out there.
+KINK_DROP = 2.0
+
+
+def without_kinks_near(
+    graph: FeatureGraph, where: np.ndarray | None, radius: float, spacing: float
+) -> FeatureGraph | None:
+    """The graph without its volume kink curves within :data:`KINK_DROP`
+    grid spacings of ``where``; None when there is no place or no such curve
+    (the failure is another curve's). Corners that end no curve (a closed
+    volume's box corners) stay."""
+    if where is None:
+        return None
+    near = np.array([
+        c.source == KINK_SOURCE and float(row_norms(c.points - where).min()) <= KINK_DROP * spacing
+        for c in graph.curves
+    ], bool)  # fmt: skip
+    if not near.any():
+        return None
+    rest = [c for c, n in zip(graph.curves, near, strict=True) if not n]
+    ended = np.zeros(len(graph.corners), bool)
+    ended[graph.ends[graph.ends >= 0]] = True
+    if not rest:
+        return FeatureGraph(corners=graph.corners[~ended])
+    return build_graph(rest, radius, graph.corners[~ended])
+
+
+def kink_balls(plan) -> tuple[np.ndarray, np.ndarray] | None:
+    """A plan's ball centres and which of them lie on volume kink curves
+    only (for :func:`repair_sites`); None without balls."""
+    graph, balls = plan.features, plan.balls
+    if graph is None or balls is None or not len(balls):
+        return None
+    kink = np.array([c.source == KINK_SOURCE for c in graph.curves] + [False], bool)
+    soft = kink[np.where(balls.curve >= 0, balls.curve, len(graph.curves))]
+    # A corner is soft when every curve ending at it is a kink curve.
+    hard_corner = np.zeros(len(graph.corners), bool)
+    for side in (0, 1):
+        e = graph.ends[:, side]
+        hard_corner[e[(e >= 0) & ~kink[:-1]]] = True
+    ended = np.zeros(len(graph.corners), bool)
+    ended[graph.ends[graph.ends >= 0]] = True
+    corner = balls.corner >= 0
+    soft[corner] = ended[balls.corner[corner]] & ~hard_corner[balls.corner[corner]]
+    return balls.centres, soft
 
 
 def search_creases(surface, topology: str, seed: int, resolution: int) -> CreaseSearch | None:

@@ -37,6 +37,7 @@ from ..topology.proven_cells import ProofMemo
 from .check import check_restricted
 from .criteria import FacetCriteria
 from .deviation import DeviationStage
+from .feature_curves import kink_balls
 from .floor import SpacingFloor
 from .methods import METHODS, Plan, boundary_sizing
 from .phases import Phases
@@ -143,7 +144,7 @@ class Mesher:
         while True:
             mesh = _attempt(self, t0, evals0, ivals0, shrink)
             fixed = mesh.features is None or self.plan.balls_given  # balls placed beforehand
-            sites = None if fixed else repair_sites(mesh, REPAIR_ANGLE)
+            sites = None if fixed else repair_sites(mesh, REPAIR_ANGLE, kink_balls(self.plan))
             if sites is None or not len(sites[0]) or self.repairs == MAX_REPAIRS:
                 return mesh
             if self.budget.exceeded(len(mesh.vertices), time.perf_counter() - t0):

@@ -38,7 +38,12 @@ from ..surfaces.volume import VolumeSurface
 from ..topology.tests import CELL_NORMAL_ANGLE, PROBE_TARGET, TESTS
 from .criteria import FacetCriteria, Sizing
 from .deviation import deviation_stage
-from .feature_curves import check_on_surface, feature_graph, has_given_curves
+from .feature_curves import (
+    check_on_surface,
+    feature_graph,
+    has_given_curves,
+    without_kinks_near,
+)
 from .stages import FacetStage, Stage, TestStage
 
 log = logging.getLogger("rdmesh")
@@ -137,7 +142,7 @@ def boissonnat_oudot(
                 creases=creases,
             )  # fmt: skip
             if not graph.empty:
-                balls = _protect(surface, criteria, graph, scan, edge_size, shrink)
+                graph, balls = _protect(surface, criteria, graph, scan, edge_size, shrink)
         except FeatureError as exc:
             if has_given_curves(surface):
                 raise
@@ -189,19 +194,50 @@ def _deviation(surface: ImplicitSurface, criteria: FacetCriteria, balls=None) ->
     return [] if stage is None else [stage]
 
 
-def _protect(surface, criteria, graph, scan, edge_size, shrink) -> Balls:
-    """The protecting balls of ``graph`` (FeatureError when they would be
-    smaller than the floor)."""
+def _protect(
+    surface, criteria, graph, scan, edge_size, shrink
+) -> tuple[FeatureGraph, Balls | None]:
+    """The graph and its protecting balls (FeatureError when they would be
+    smaller than the floor). A volume's kink curves are ours to leave out:
+    where they cannot be protected, those near the place are dropped and
+    the rest protected again (at most :data:`KINK_RETRIES` times; no balls
+    when nothing is left)."""
     check_on_surface(surface, graph.curves)
     size = _edge_sizing(surface, criteria, edge_size)
     sheets = (scan.crossings, unit_normals(surface, scan.crossings))
-    balls = protect(graph, size, surface.radius, sheets,
-                    distance=criteria.distance_bound, shrink=shrink)  # fmt: skip
+    for attempt in range(KINK_RETRIES + 1):
+        try:
+            balls = protect(graph, size, surface.radius, sheets,
+                            distance=criteria.distance_bound, shrink=shrink)  # fmt: skip
+            break
+        except FeatureError as exc:
+            fewer = (
+                None
+                if attempt == KINK_RETRIES
+                else without_kinks_near(graph, exc.where, surface.radius, _grid_spacing(surface))
+            )
+            if fewer is None:
+                raise
+            log.info("features: %d volume kink curves near %s left out (%s)",
+                     len(graph) - len(fewer), np.round(exc.where, 6).tolist(), exc)  # fmt: skip
+            graph = fewer
+            if graph.empty:
+                return graph, None
     log.info(
         "features: %d curves, %d corners, %d protecting balls (radii %.3g to %.3g)",
         len(graph.curves), len(graph.corners), len(balls), balls.radii.min(), balls.radii.max(),
     )  # fmt: skip
-    return balls
+    return graph, balls
+
+
+def _grid_spacing(surface: ImplicitSurface) -> float:
+    """A volume's smallest sample spacing (the bounding radius for other surfaces)."""
+    spacing = getattr(surface, "spacing", None)
+    return surface.radius if spacing is None else float(np.min(spacing))
+
+
+#: Times kink curves near a place that cannot be protected are dropped.
+KINK_RETRIES = 20
 
 
 #: Seeds closer to a protecting ball than this, times its radius, are dropped.
