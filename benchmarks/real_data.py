@@ -376,6 +376,7 @@ def volume_rows(quick: bool, cases: str | None = None) -> list[dict]:
                 **topology(m.vertices, m.faces),
                 "min_angle": round(min_angle(m.vertices, m.faces), 1),
                 "seconds": round(sec, 2), "complete": m.complete,
+                "unresolved": len(m.unresolved),
                 "seeding": m.report["seeding"]["level"],
                 "evals_per_vertex": round(m.stats["evaluations"] / max(len(m.vertices), 1), 1),
                 "note": note,

@@ -30,7 +30,7 @@ class MeshFeatures:
         The corners as mesh vertex indices (-1 where one is not a vertex).
     sources : list of str
         Where each curve came from ("given", "clip boundary", "volume box",
-        "box edge", "mesh").
+        "box edge", "mesh", "volume kink").
     held : bool
         True when every consecutive pair of centres is a mesh edge with the
         right number of triangles and every corner is a vertex.

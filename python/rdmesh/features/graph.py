@@ -48,7 +48,7 @@ class FeatureCurve:
     closed : bool
     source : str
         Where it came from: "given", "clip boundary", "volume box", "box edge",
-        "mesh".
+        "mesh", "volume kink".
     project : callable, optional
         ``(k, 3) -> (k, 3)``: points near the curve onto the true curve (Newton
         on its equations). None: the polyline is the curve.

@@ -251,8 +251,8 @@ class VolumeSurface(VolumeOracle, ImplicitSurface):
         Feature curves to keep (see :class:`rdmesh.ImplicitSurface`). With
         ``border="closed"`` the curves where the isosurface meets the box
         faces, and the box edges and corners inside the region, are
-        protected as well; "none" protects nothing (those creases are then
-        cut by triangles).
+        protected as well; for "linear" (either border) so are the sharp
+        kinks on the grid planes. "none" protects nothing (creases are cut).
 
     Attributes
     ----------
