@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .graph import FeatureGraph
 from .protect import Balls
@@ -158,8 +159,6 @@ def repair_sites(
         rad.append(2.0 * np.sqrt(w[ids]))
     pts, rad = np.concatenate(pts), np.concatenate(rad)
     if soft is not None and len(pts) and soft[1].any():
-        from scipy.spatial import cKDTree
-
         _, j = cKDTree(soft[0]).query(pts)
         pts, rad = pts[~soft[1][j]], rad[~soft[1][j]]
     return pts, rad

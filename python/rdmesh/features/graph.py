@@ -119,6 +119,13 @@ class FeatureGraph:
     def empty(self) -> bool:
         return not self.curves and not len(self.corners)
 
+    @property
+    def ended(self) -> np.ndarray:
+        """``(c,)`` bool: the corners that end a curve (the rest are isolated)."""
+        out = np.zeros(len(self.corners), bool)
+        out[self.ends[self.ends >= 0]] = True
+        return out
+
     def merged(self, other: FeatureGraph, radius: float) -> FeatureGraph:
         """This graph and ``other`` as one (shared corners merged)."""
         if other.empty:

@@ -222,11 +222,8 @@ def without_kinks_near(
     if not near.any():
         return None
     rest = [c for c, n in zip(graph.curves, near, strict=True) if not n]
-    ended = np.zeros(len(graph.corners), bool)
-    ended[graph.ends[graph.ends >= 0]] = True
-    if not rest:
-        return FeatureGraph(corners=graph.corners[~ended])
-    return build_graph(rest, radius, graph.corners[~ended])
+    isolated = graph.corners[~graph.ended]
+    return build_graph(rest, radius, isolated) if rest else FeatureGraph(corners=isolated)
 
 
 def kink_balls(plan) -> tuple[np.ndarray, np.ndarray] | None:
@@ -242,10 +239,8 @@ def kink_balls(plan) -> tuple[np.ndarray, np.ndarray] | None:
     for side in (0, 1):
         e = graph.ends[:, side]
         hard_corner[e[(e >= 0) & ~kink[:-1]]] = True
-    ended = np.zeros(len(graph.corners), bool)
-    ended[graph.ends[graph.ends >= 0]] = True
     corner = balls.corner >= 0
-    soft[corner] = ended[balls.corner[corner]] & ~hard_corner[balls.corner[corner]]
+    soft[corner] = (graph.ended & ~hard_corner)[balls.corner[corner]]
     return balls.centres, soft
 
 

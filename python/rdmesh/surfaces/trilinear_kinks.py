@@ -55,7 +55,7 @@ MAX_PASSES = 8
 NEWTON_STEPS = 6
 
 
-def kink_curves(volume, angle: float | None = None) -> list[FeatureCurve]:
+def kink_curves(volume, angle: float = KINK_ANGLE) -> list[FeatureCurve]:
     """The sharp stretches of the isosurface's kinks on the interior grid planes.
 
     Parameters
@@ -71,7 +71,6 @@ def kink_curves(volume, angle: float | None = None) -> list[FeatureCurve]:
         Source ``"volume kink"``; face cells touching the box are left out
         (the box's own curve is protected there).
     """
-    angle = KINK_ANGLE if angle is None else angle
     data = volume._sampler.coefficients()
     out: list[FeatureCurve] = []
     for axis in range(3):
@@ -115,7 +114,7 @@ def _apart(curves: list[FeatureCurve], gap: float) -> list[FeatureCurve]:
     ends = np.array([none if c.closed else c.points[[0, -1]] for c in curves])
     a, b = owner[pairs[:, 0]], owner[pairs[:, 1]]
     d = np.linalg.norm(ends[a][:, :, None, :] - ends[b][:, None, :, :], axis=3)
-    shared = np.nanmin(np.where(np.isnan(d), np.inf, d), axis=(1, 2)) <= 1e-9 * max(gap, 1.0)
+    shared = np.min(np.where(np.isnan(d), np.inf, d), axis=(1, 2)) <= 1e-9 * max(gap, 1.0)
     near_end = np.linalg.norm(pts[pairs[:, 0]][:, None, :] - ends[a], axis=2).min(axis=1)
     close = ~shared | (near_end > CORNER_REACH * gap)
     if not close.any():
@@ -213,11 +212,10 @@ def _plane_branches(data, iso, axis, spacing, angle):
     # One-sided normal derivatives: bilinear in the face of the differences.
     lo = v[:-2][:, 1:-1, 1:-1] - P[:, 1:-1, 1:-1]
     hi = v[2:][:, 1:-1, 1:-1] - P[:, 1:-1, 1:-1]
-    jj, kk = j, k
 
     def bil(D):
-        return (D[i, jj, kk] * (1 - u) * (1 - w) + D[i, jj + 1, kk] * u * (1 - w)
-                + D[i, jj, kk + 1] * (1 - u) * w + D[i, jj + 1, kk + 1] * u * w)  # fmt: skip
+        return (D[i, j, k] * (1 - u) * (1 - w) + D[i, j + 1, k] * u * (1 - w)
+                + D[i, j, k + 1] * (1 - u) * w + D[i, j + 1, k + 1] * u * w)  # fmt: skip
 
     ao, bo, co, eo = (x[owner][:, None] for x in (a, b, c, e))
     gu = ((bo - ao) * (1 - w) + (eo - co) * w) / spacing[t1]
@@ -231,12 +229,8 @@ def _plane_branches(data, iso, axis, spacing, angle):
     seg = wide[:, 1:] | wide[:, :-1]
     br, st = np.nonzero(seg)
     m = u.shape[1]
-    idx = np.zeros((len(owner), m, 3))
-    idx[..., 0] = i + 1
-    idx[..., 1] = j + 1 + u
-    idx[..., 2] = k + 1 + w
-    pts = np.empty_like(idx)
-    pts[..., axis], pts[..., t1], pts[..., t2] = idx[..., 0], idx[..., 1], idx[..., 2]
+    pts = np.empty((len(owner), m, 3))
+    pts[..., axis], pts[..., t1], pts[..., t2] = i + 1, j + 1 + u, k + 1 + w
     rows = br * m + st
     seg = np.stack([rows, rows + 1], axis=1)
     # Only the points the segments use (the rest of the isocurves is mild).
@@ -274,7 +268,7 @@ def _branch_ends(a, b, c, e, iso):
         # branches cut off (the outside ones when the saddle is inside).
         a4, b4, c4, e4 = a[four], b[four], c[four], e[four]
         saddle = (a4 * e4 - b4 * c4) / (a4 - b4 - c4 + e4)
-        a_cut = (a4 > iso) != (saddle > iso)  # corner a is cut off with b... pairs
+        a_cut = (a4 > iso) != (saddle > iso)  # a (and e) cut off, not b and c
         # Corner a lies between edges 3 and 0, b between 0 and 1, e between 1
         # and 2, c between 2 and 3; the cut corners are a and e, or b and c.
         p1 = np.where(a_cut[:, None], [[3, 0]], [[0, 1]])
