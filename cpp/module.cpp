@@ -23,6 +23,7 @@
 #endif
 
 #include "bindings.hpp"
+#include "complex_status.hpp"
 #include "rdt.hpp"
 
 namespace py = pybind11;
@@ -489,6 +490,30 @@ PYBIND11_MODULE(_rdt, m) {
       py::arg("centres"), py::arg("radii"),
       "Indices of a greedy independent set of balls: by decreasing radius, a "
       "ball is kept unless its centre lies in a kept ball.");
+
+  m.def(
+      "complex_status",
+      [](const IdArray& faces, std::int64_t n_vertices) {
+        if (faces.ndim() != 2 || faces.shape(1) != 3)
+          throw std::invalid_argument("faces must have shape (F, 3)");
+        if (faces.shape(0) > (py::ssize_t{1} << 30))
+          throw std::invalid_argument("more than 2**30 faces");
+        const std::vector<std::int64_t> t = copy_of<std::int64_t>(faces);
+        rdmesh::ComplexCounts c;
+        {
+          py::gil_scoped_release release;
+          c = rdmesh::complex_counts(t.data(), t.size() / 3, n_vertices);
+        }
+        const auto E = static_cast<py::ssize_t>(c.edge_key.size());
+        const auto F = static_cast<py::ssize_t>(faces.shape(0));
+        return py::make_tuple(to_numpy(c.edge_key, {E}), to_numpy(c.edge_count, {E}),
+                              to_numpy(c.face_edges, {F, 3}),
+                              to_numpy(c.vertex_fans, {static_cast<py::ssize_t>(n_vertices)}));
+      },
+      py::arg("faces"), py::arg("n_vertices"),
+      "(edge_key, edge_count, face_edges, vertex_fans) of a triangle set: the "
+      "distinct edges by ascending key min * n + max, the faces of each, each "
+      "face's edges ab, bc, ca as indices, and the fans of faces around each vertex.");
 
   m.def(
       "trim_heap",

@@ -559,6 +559,7 @@ bool RestrictedDelaunay::reuse(Cell_handle c, int i, Cell_handle nb, int j, std:
   c->info().flags[i] = f | (restricted && !(was & OUTWARD) ? OUTWARD : 0);
   nb->info().centre[j] = idx;
   c->info().centre[i] = idx;
+  mark(c, i, f);
   ++reused_;
   return true;
 }
@@ -637,6 +638,7 @@ void RestrictedDelaunay::update_facets(const std::uint8_t* flags,
                            (((flags[k] & OUTWARD) != 0) != (side.swapped != 0));
     c->info().flags[i] = f | (out_to_nb ? OUTWARD : 0);
     nb->info().flags[j] = f | ((f & RESTRICTED) && !out_to_nb ? OUTWARD : 0);
+    mark(c, i, f);
     std::int32_t idx = -1;
     if (f & RESTRICTED) {
       idx = static_cast<std::int32_t>(centres_.size() / 3);
@@ -665,31 +667,91 @@ void RestrictedDelaunay::restart_round() {
   gathered_all_ = true;
 }
 
+namespace {
+
+constexpr std::uint8_t kMarks = BAD | TOPO;
+constexpr std::uint8_t kNeed = RESTRICTED | OUTWARD;
+
+}  // namespace
+
+void RestrictedDelaunay::mark(Cell_handle c, int i, std::uint8_t flags) {
+  if (!(flags & RESTRICTED) || !(flags & kMarks) || !marked_whole_) return;
+  std::array<std::int64_t, 3> t;
+  for (int k = 1; k < 4; ++k) t[k - 1] = c->vertex((i + k) & 3)->info().id;
+  std::sort(t.begin(), t.end());
+  try {
+    marked_.push_back(t);
+  } catch (const std::bad_alloc&) {
+    // Not recorded: the next read scans every cell, which rebuilds the list.
+    marked_whole_ = false;
+  }
+}
+
+void RestrictedDelaunay::emit(FacetList& out, Cell_handle c, int i, std::uint8_t fl) const {
+  out.flags.push_back(fl & LABELS);
+  // The side whose neighbour is outside reports it; the normal points away
+  // from vertex i, i.e. reversed CGAL facet order (which faces vertex i).
+  const int a = CGAL::Triangulation_utils_3::vertex_triple_index(i, 0);
+  const int b = CGAL::Triangulation_utils_3::vertex_triple_index(i, 1);
+  const int d = CGAL::Triangulation_utils_3::vertex_triple_index(i, 2);
+  out.tri.push_back(c->vertex(a)->info().id);
+  out.tri.push_back(c->vertex(d)->info().id);
+  out.tri.push_back(c->vertex(b)->info().id);
+  const std::int32_t idx = c->info().centre[i];
+  if (idx >= 0)
+    out.centre.insert(out.centre.end(), centres_.begin() + 3 * idx,
+                      centres_.begin() + 3 * idx + 3);
+  else
+    out.centre.insert(out.centre.end(), 3, 0.0);
+}
+
 FacetList RestrictedDelaunay::facets_with(std::uint8_t mask) const {
+  // A lookup costs about as much as visiting a hundred cells.
+  if (mask != 0 && !(mask & ~kMarks) && marked_whole_ &&
+      marked_.size() * 100 <= dt_.number_of_cells())
+    return facets_from_marked(mask);
   FacetList out;
-  const std::uint8_t need = RESTRICTED | OUTWARD;
+  std::vector<std::array<std::int64_t, 3>> marked;
   for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
     const CellInfo& info = c->info();
     for (int i = 0; i < 4; ++i) {
       const std::uint8_t fl = info.flags[i];
-      if ((fl & need) != need || (mask != 0 && (fl & mask) == 0)) continue;
-      out.flags.push_back(fl & LABELS);
-      // The side whose neighbour is outside reports it; the normal points away
-      // from vertex i, i.e. reversed CGAL facet order (which faces vertex i).
-      const int a = CGAL::Triangulation_utils_3::vertex_triple_index(i, 0);
-      const int b = CGAL::Triangulation_utils_3::vertex_triple_index(i, 1);
-      const int d = CGAL::Triangulation_utils_3::vertex_triple_index(i, 2);
-      out.tri.push_back(c->vertex(a)->info().id);
-      out.tri.push_back(c->vertex(d)->info().id);
-      out.tri.push_back(c->vertex(b)->info().id);
-      const std::int32_t idx = info.centre[i];
-      if (idx >= 0)
-        out.centre.insert(out.centre.end(), centres_.begin() + 3 * idx,
-                          centres_.begin() + 3 * idx + 3);
-      else
-        out.centre.insert(out.centre.end(), 3, 0.0);
+      if ((fl & kNeed) != kNeed) continue;
+      if (fl & kMarks) {
+        std::array<std::int64_t, 3> t;
+        for (int k = 1; k < 4; ++k) t[k - 1] = c->vertex((i + k) & 3)->info().id;
+        std::sort(t.begin(), t.end());
+        marked.push_back(t);
+      }
+      if (mask != 0 && (fl & mask) == 0) continue;
+      emit(out, c, i, fl);
     }
   }
+  std::sort(marked.begin(), marked.end());
+  marked_.swap(marked);
+  marked_whole_ = true;
+  return out;
+}
+
+FacetList RestrictedDelaunay::facets_from_marked(std::uint8_t mask) const {
+  std::sort(marked_.begin(), marked_.end());
+  marked_.erase(std::unique(marked_.begin(), marked_.end()), marked_.end());
+  FacetList out;
+  std::size_t kept = 0;
+  for (const auto& t : marked_) {
+    Cell_handle c;
+    int a, b, d;
+    if (!dt_.is_facet(samples_[t[0]], samples_[t[1]], samples_[t[2]], c, a, b, d)) continue;
+    const int i = 6 - a - b - d;
+    Cell_handle nb = c->neighbor(i);
+    const int j = nb->index(c);
+    const std::uint8_t fc = c->info().flags[i], fn = nb->info().flags[j];
+    if (!((fc | fn) & RESTRICTED) || !((fc | fn) & kMarks)) continue;  // relabelled
+    marked_[kept++] = t;
+    if ((fc & kNeed) == kNeed && (fc & mask)) emit(out, c, i, fc);
+    else if ((fn & kNeed) == kNeed && (fn & mask)) emit(out, nb, j, fn);
+  }
+  marked_.resize(kept);
   return out;
 }
 
@@ -793,6 +855,8 @@ void RestrictedDelaunay::check() const {
   if (!dt_.is_valid(false))
     throw std::runtime_error("the triangulation is not a valid regular "
                              "(weighted Delaunay) triangulation");
+  std::vector<std::array<std::int64_t, 3>> marked(marked_);
+  std::sort(marked.begin(), marked.end());
   for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) {
     for (int i = 0; i < 4; ++i) {
       Cell_handle nb = c->neighbor(i);
@@ -803,6 +867,13 @@ void RestrictedDelaunay::check() const {
       if ((a & RESTRICTED) && ((a & OUTWARD) != 0) == ((b & OUTWARD) != 0))
         throw std::runtime_error(
             "a restricted facet must face outward on exactly one side");
+      if (marked_whole_ && (a & RESTRICTED) && (a & kMarks)) {
+        std::array<std::int64_t, 3> t;
+        for (int k = 1; k < 4; ++k) t[k - 1] = c->vertex((i + k) & 3)->info().id;
+        std::sort(t.begin(), t.end());
+        if (!std::binary_search(marked.begin(), marked.end(), t))
+          throw std::runtime_error("a facet labelled BAD or TOPO is not in the marked list");
+      }
     }
   }
 }

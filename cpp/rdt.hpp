@@ -219,7 +219,9 @@ class RestrictedDelaunay {
   void restart_round();
 
   // Restricted facets having any bit of `mask` (all restricted facets when
-  // mask is 0), each once.
+  // mask is 0), each once.  A mask of BAD and TOPO bits only reads the
+  // facets marked so since the last full scan (marked_) when they are few:
+  // late rounds then need not visit every cell.
   FacetList facets_with(std::uint8_t mask) const;
 
   // Each facet (sorted or not) as three vertex ids: is it a Delaunay facet?
@@ -364,6 +366,15 @@ class RestrictedDelaunay {
   // Whether the grid clears segment a -> b (set_clearing).
   bool cleared_by_grid(const std::array<double, 3>& a, const std::array<double, 3>& b);
   std::uint64_t exact_circumcentres_ = 0;  // see exact_circumcentres()
+  // Sorted vertex ids of facets given a BAD or TOPO label since the last
+  // full scan of facets_with (which resets it to the labelled facets then),
+  // so a superset of the labelled facets while marked_whole_; entries whose
+  // facet is gone or relabelled are dropped when read.
+  mutable std::vector<std::array<std::int64_t, 3>> marked_;
+  mutable bool marked_whole_ = true;
+  void mark(Cell_handle c, int i, std::uint8_t flags);
+  void emit(FacetList& out, Cell_handle c, int i, std::uint8_t fl) const;
+  FacetList facets_from_marked(std::uint8_t mask) const;
   mutable std::mutex mutex_;
   std::vector<Vertex_handle> round_vertices_;  // inserted before this round
   // Cells new in this round, gathered lazily (so the first chunk of a round

@@ -9,7 +9,7 @@ import pytest
 from meshcheck import face_normals
 from rdmesh._geometry import circumradii
 from rdmesh._vectors import segment_directions
-from rdmesh.core import BAD, KNOWN, OUTWARD, RESTRICTED, _rdt
+from rdmesh.core import BAD, KNOWN, OUTWARD, RESTRICTED, TOPO, _rdt
 from rdmesh.refine.criteria import FacetCriteria
 from rdmesh.refine.facets import DualSamples, evaluate_facets
 from rdmesh.surfaces import SURFACES
@@ -121,6 +121,35 @@ def test_update_facets_length_must_match():
     rdt.insert(rng.uniform(-1, 1, (1, 3)))
     with pytest.raises(ValueError, match=r"no insert may come in between"):
         rdt.update_facets(np.zeros(k, np.uint8), np.zeros((k, 3)))
+
+
+@pytest.mark.parametrize("share", [0.3, 0.001])
+def test_labelled_facets_match_the_labelled_part_of_all_facets(share):
+    """facets(BAD), facets(TOPO) and facets(BAD | TOPO) are the labelled part
+    of facets(0), with the same centres and flags, round after round. With
+    few labels (share 0.001) the core reads them from its list of marked
+    facets, some gone or relabelled by the insertions in between; with many
+    (0.3) it scans every cell."""
+    rng = np.random.default_rng(3)
+    rdt = _rdt_new()
+    rdt.insert(rng.uniform(-1, 1, (3000, 3)))
+    for _ in range(6):
+        k = len(rdt.changed_facets()[0])
+        flags = RESTRICTED | rng.choice([0, OUTWARD], k)
+        flags |= (rng.random(k) < share) * BAD | (rng.random(k) < share) * TOPO
+        rdt.update_facets(flags.astype(np.uint8), rng.uniform(-1, 1, (k, 3)))
+        rdt.check()  # every labelled facet is in the marked list
+        got = {mask: rdt.facets(mask) for mask in (BAD, TOPO, BAD | TOPO)}
+        tri0, c0, fl0 = rdt.facets(0)
+        for mask, (tri, centres, fl) in got.items():
+            want = np.flatnonzero(fl0 & mask)
+            assert len(want) > 0
+            key = {tuple(t): i for i, t in enumerate(tri0[want].tolist())}
+            idx = want[[key[tuple(t)] for t in tri.tolist()]]  # KeyError: not labelled
+            assert len(set(idx.tolist())) == len(want)  # each labelled facet once
+            np.testing.assert_array_equal(centres, c0[idx])
+            np.testing.assert_array_equal(fl, fl0[idx])
+        rdt.insert(rng.uniform(-1, 1, (20, 3)))
 
 
 def test_changed_facets_are_delaunay_facets_with_clipped_duals():

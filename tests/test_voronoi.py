@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rdmesh.core import _rdt
 from rdmesh.sampling.probes import Probes
-from rdmesh.topology.complex import complex_status
+from rdmesh.topology.complex import complex_status, is_closed_manifold
 from rdmesh.topology.loops import LoopMemo, loop_test
 from scipy.spatial import cKDTree
 
@@ -266,3 +266,47 @@ def test_complex_status_counts_every_edge(seed, n_faces, n_vertices):
     np.testing.assert_array_equal(status.edge_key[status.facet_edges].ravel(), keys)
     used = np.unique(faces)
     assert (status.vertex_fans[used] >= 1).all()
+
+
+def _fans_reference(faces: np.ndarray, n: int) -> np.ndarray:
+    """Fans around each vertex: components of its link, where each face
+    (v, x, y) joins its other two vertices x and y."""
+
+    def root(parent, x):
+        while parent[x] != x:
+            x = parent[x]
+        return x
+
+    fans = np.zeros(n, np.int64)
+    for v in range(n):
+        parent: dict[int, int] = {}
+        for f in faces[(faces == v).any(axis=1)]:
+            x, y = (int(u) for u in f if u != v)
+            parent.setdefault(x, x)
+            parent.setdefault(y, y)
+            parent[root(parent, x)] = root(parent, y)
+        fans[v] = sum(1 for x in parent if parent[x] == x)
+    return fans
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(0, 40), st.integers(3, 9))
+def test_complex_status_counts_every_fan(seed, n_faces, n_vertices):
+    """Fans around each vertex against a union-find of its link, on random
+    triangle sets (bowties, fins and repeated faces included)."""
+    rng = np.random.default_rng(seed)
+    faces = np.array([rng.choice(n_vertices, 3, replace=False) for _ in range(n_faces)])
+    faces = faces.reshape(-1, 3).astype(np.int64)
+    status = complex_status(faces, n_vertices)
+    np.testing.assert_array_equal(status.vertex_fans, _fans_reference(faces, n_vertices))
+
+
+@pytest.mark.parametrize(
+    ("faces", "match"),
+    [([[0, 1, 5]], r"vertex id 5 outside \[0, 5\)"), ([[0, 1, -1]], r"vertex id -1"),
+     ([[0, 2, 2]], r"repeats a vertex")],
+)  # fmt: skip
+def test_complex_status_rejects_bad_faces(faces, match):
+    with pytest.raises(ValueError, match=match):
+        complex_status(np.array(faces), 5)
+    assert not is_closed_manifold(np.array([[0, 1, 2], [0, 2, 2]]), 5)

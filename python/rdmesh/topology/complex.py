@@ -13,10 +13,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-
-def _pair_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    return lo.astype(np.int64) * n + hi
+from .. import core
 
 
 @dataclass
@@ -51,53 +48,22 @@ def complex_status(faces: np.ndarray, n_vertices: int) -> ComplexStatus:
     ----------
     faces : (F, 3) vertex ids.
     n_vertices : number of vertex ids.
+
+    Raises
+    ------
+    ValueError
+        If a face has an id outside ``[0, n_vertices)`` or repeats a vertex.
     """
-    faces = np.asarray(faces, dtype=np.int64)
-    F = len(faces)
-    a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
-    # Written into one array and inverted through its sort order, not
-    # np.unique, whose temporaries set the peak memory of a large run (nor a
-    # binary search of every key, which cost twice the sort).
-    keys = np.empty(3 * F, np.int64)
-    for j, (u, v) in enumerate(((a, b), (b, c), (c, a))):
-        keys[j * F : (j + 1) * F] = _pair_keys(u, v, n_vertices)
-    order = np.argsort(keys, kind="stable")
-    sk = keys[order]
-    del keys
-    first = np.r_[True, sk[1:] != sk[:-1]] if F else np.zeros(0, bool)
-    edge_key = sk[first]
-    counts = np.diff(np.r_[np.flatnonzero(first), len(sk)])
-    del sk
-    # Edge indices fit in int32 (fewer than 2**31 edges); halves the memory.
-    flat = np.empty(3 * F, np.int32)
-    flat[order] = np.cumsum(first, dtype=np.int32) - 1
-    del order, first
-    facet_edges = flat.reshape(3, F).T
-    # Fans: nodes are spokes, an edge seen from one of its ends (2 per edge:
-    # 2 e + [seen from the larger id]); each facet joins the two spokes at
-    # each corner, so a fan is a connected set of spokes.
-    e_ab, e_bc, e_ca = facet_edges[:, 0], facet_edges[:, 1], facet_edges[:, 2]
-    s1 = np.concatenate([2 * e_ab + (a > b), 2 * e_bc + (b > c), 2 * e_ca + (c > a)])
-    s2 = np.concatenate([2 * e_ca + (a > c), 2 * e_ab + (b > a), 2 * e_bc + (c > b)])
-    fans = np.zeros(n_vertices, np.int64)
-    m = 2 * len(edge_key)
-    if m:
-        g = coo_matrix((np.ones(len(s1), np.int8), (s1, s2)), shape=(m, m))
-        n_fans, label = connected_components(g, directed=False)
-        # A spoke's owner: the larger id for odd spokes, else the smaller.
-        lo, hi = edge_key // n_vertices, edge_key % n_vertices
-        owner = np.column_stack([lo, hi]).ravel()
-        # Every spoke of a fan has the same owner.
-        fan_owner = np.empty(n_fans, np.int64)
-        fan_owner[label] = owner
-        fans = np.bincount(fan_owner, minlength=n_vertices)
-    return ComplexStatus(edge_key, counts, facet_edges, fans)
+    # In the core: linear time, and a third of the sort-and-components
+    # version's time on the 288k facets of a grey-matter map (0.05 s).
+    key, count, facet_edges, fans = core.complex_status(np.asarray(faces, np.int64), n_vertices)
+    return ComplexStatus(key, count, facet_edges, fans)
 
 
 def is_closed_manifold(faces: np.ndarray, n_vertices: int) -> bool:
     """Every edge in two faces and every used vertex with one fan of faces
-    (False without faces)."""
-    if len(faces) == 0:
+    (False without faces, or with a face that repeats a vertex)."""
+    if len(faces) == 0 or _degenerate(faces):
         return False
     st = complex_status(faces, n_vertices)
     used = np.unique(faces)
@@ -106,8 +72,9 @@ def is_closed_manifold(faces: np.ndarray, n_vertices: int) -> bool:
 
 def is_manifold_with_boundary(faces: np.ndarray, n_vertices: int) -> bool:
     """Every edge in one or two faces, some in one (a boundary), and every
-    used vertex with one fan of faces (False without faces)."""
-    if len(faces) == 0:
+    used vertex with one fan of faces (False without faces, or with a face
+    that repeats a vertex)."""
+    if len(faces) == 0 or _degenerate(faces):
         return False
     st = complex_status(faces, n_vertices)
     used = np.unique(faces)
@@ -116,6 +83,12 @@ def is_manifold_with_boundary(faces: np.ndarray, n_vertices: int) -> bool:
         and np.any(st.edge_count == 1)
         and np.all(st.vertex_fans[used] == 1)
     )
+
+
+def _degenerate(faces: np.ndarray) -> bool:
+    """Whether some face repeats a vertex."""
+    f = np.asarray(faces)
+    return bool(np.any((f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 2] == f[:, 0])))
 
 
 def largest_incident(group: np.ndarray, facet: np.ndarray, radius: np.ndarray) -> np.ndarray:
@@ -180,7 +153,7 @@ def distinct_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.n
     keys = np.empty(3 * F, np.int64)
     for j in range(3):
         u, v, out = faces[:, j], faces[:, (j + 1) % 3], keys[j * F : (j + 1) * F]
-        # _pair_keys written in place: one temporary per column.
+        # The key min * n + max written in place: one temporary per column.
         np.minimum(u, v, out=out)
         out *= n_vertices
         out += np.maximum(u, v)
