@@ -186,6 +186,9 @@ def protect(
         )
     )
     dense = [_densify(c, h_max) for c in curves]
+    if sheets is not None and len(sheets[0]):
+        # One tree for every query (one per curve and the corners).
+        sheets = (*sheets, cKDTree(sheets[0]))
     state = _place(graph, dense, edge_size, sheets, distance, shrink or [], floor)
     boundary = np.array([c.source in boundary_sources for c in curves], bool)
     for loop in range(MAX_LOOPS):
@@ -596,13 +599,15 @@ def _curve_gap(d, i, closed, length, tree, all_c, all_s, in_corner, mine) -> np.
 
 def _sheet_gap(x: np.ndarray, sheets, h: np.ndarray) -> np.ndarray:
     """SHEET_GAP times the distance from each point to surface samples whose
-    tangent plane passes far from it (another sheet), among the nearest ones."""
-    pts, nrm = sheets
+    tangent plane passes far from it (another sheet), among the nearest ones.
+    ``sheets``: (points, unit normals), and optionally the points' KD-tree."""
+    pts, nrm = sheets[:2]
     if len(pts) == 0 or len(x) == 0:
         return np.full(len(x), np.inf)
     k = min(24, len(pts))
     reach = float(np.max(h)) * 4.0 if np.all(np.isfinite(h)) else np.inf
-    dist, j = cKDTree(pts).query(x, k=k, distance_upper_bound=reach)
+    tree = sheets[2] if len(sheets) > 2 else cKDTree(pts)
+    dist, j = tree.query(x, k=k, distance_upper_bound=reach)
     dist, j = dist.reshape(len(x), -1), j.reshape(len(x), -1)
     ok = j < len(pts)
     jj = np.minimum(j, len(pts) - 1)
@@ -621,8 +626,8 @@ def _meeting(balls: Balls) -> np.ndarray:
     c, r = balls.centres, balls.radii
     if len(c) < 2:
         return np.zeros((0, 2), np.int64)
-    tree = cKDTree(c)
-    pairs = np.array(sorted(tree.query_pairs(2.0 * float(r.max()))), np.int64).reshape(-1, 2)
+    pairs = cKDTree(c).query_pairs(2.0 * float(r.max()), output_type="ndarray")
+    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))].astype(np.int64).reshape(-1, 2)
     if len(pairs) == 0:
         return pairs
     i, j = pairs[:, 0], pairs[:, 1]

@@ -316,7 +316,10 @@ def box_grid(box: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndar
     x = np.column_stack([axes[0][ii], axes[1][jj], axes[2][kk]])
     # Edges: each triangle's three sides, shared sides once.
     sides = np.sort(np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1), axis=2)
-    ends, inverse = np.unique(sides.reshape(-1, 2), axis=0, return_inverse=True)
+    # By integer key: np.unique over rows sorts a structured view, 4x slower.
+    pair = sides.reshape(-1, 2)
+    key, inverse = np.unique(pair[:, 0] * len(x) + pair[:, 1], return_inverse=True)
+    ends = np.column_stack(np.divmod(key, len(x)))
     tri_edges = inverse.reshape(-1, 3)
     # An edge on a box edge has both ends with two coordinates at the bounds.
     at = (x == lo) | (x == hi)
