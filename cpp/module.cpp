@@ -228,6 +228,28 @@ PYBIND11_MODULE(_rdt, m) {
           "((k, 3) outward-oriented vertex ids, (k, 3) surface centres, (k,) "
           "flag bits).")
       .def(
+          "facets_around",
+          [](RestrictedDelaunay& self, const IdArray& ids) {
+            if (ids.ndim() != 1) throw std::invalid_argument("ids must have shape (m,)");
+            const std::vector<std::int64_t> v = copy_of<std::int64_t>(ids);
+            rdmesh::FacetList f =
+                locked(self, [&] { return self.facets_around(v.data(), v.size()); });
+            const auto k = static_cast<py::ssize_t>(f.tri.size() / 3);
+            return py::make_tuple(to_numpy(f.tri, {k, 3}), to_numpy(f.centre, {k, 3}),
+                                  to_numpy(f.flags, {k}));
+          },
+          py::arg("ids"),
+          "Restricted facets having a vertex among the sample ids, each once, as "
+          "facets(0).")
+      .def(
+          "take_touched",
+          [](RestrictedDelaunay& self) {
+            std::vector<std::int64_t> out = locked(self, [&] { return self.take_touched(); });
+            return to_numpy(out, {static_cast<py::ssize_t>(out.size())});
+          },
+          "Ids of the samples whose restricted facets may have changed since the "
+          "last call (vertices of the cells made since), ascending; clears them.")
+      .def(
           "all_facets",
           [](RestrictedDelaunay& self) {
             rdmesh::ChangedFacets f = locked(self, [&] { return self.all_facets(); });

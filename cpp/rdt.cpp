@@ -297,6 +297,13 @@ void RestrictedDelaunay::mark_fresh(Cell_handle c) {
   // Listed first: if that throws, the cell is not marked either.
   fault_point_for_testing();
   fresh_.push_back(c);
+  for (int k = 0; k < 4; ++k) {
+    Vertex_handle v = c->vertex(k);
+    if (is_dummy(v)) continue;
+    const auto id = static_cast<std::size_t>(v->info().id);
+    if (id < touched_.size()) touched_[id] = 1;
+    else touched_all_ = true;
+  }
   CellInfo& info = c->info();
   info.stamp = round_;
   info.order = static_cast<std::int32_t>(fresh_.size() - 1);
@@ -419,6 +426,8 @@ void RestrictedDelaunay::start_round() {
 
 ChangedFacets RestrictedDelaunay::changed_facets(
     std::size_t max_facets, const SegmentSampling& sampling) {
+  // New samples are touched; sized before any cell is marked (may throw).
+  if (touched_.size() < samples_.size()) touched_.resize(samples_.size(), 1);
   if (!last_new_.empty()) start_round();
   if (call_ == std::numeric_limits<std::int32_t>::max()) reset_end_stamps();
   ++call_;
@@ -752,6 +761,50 @@ FacetList RestrictedDelaunay::facets_from_marked(std::uint8_t mask) const {
     else if ((fn & kNeed) == kNeed && (fn & mask)) emit(out, nb, j, fn);
   }
   marked_.resize(kept);
+  return out;
+}
+
+FacetList RestrictedDelaunay::facets_around(const std::int64_t* ids, std::size_t m) const {
+  const auto n = static_cast<std::int64_t>(samples_.size());
+  std::vector<std::uint8_t> asked(samples_.size(), 0);
+  for (std::size_t k = 0; k < m; ++k) {
+    if (ids[k] < 0 || ids[k] >= n)
+      throw std::invalid_argument("vertex id " + std::to_string(ids[k]) + " out of range");
+    asked[ids[k]] = 1;
+  }
+  FacetList out;
+  std::vector<Cell_handle> cells;
+  for (std::int64_t id = 0; id < n; ++id) {
+    if (!asked[id]) continue;
+    Vertex_handle v = samples_[id];
+    cells.clear();
+    dt_.finite_incident_cells(v, std::back_inserter(cells));
+    for (Cell_handle c : cells) {
+      const int iv = c->index(v);
+      for (int i = 0; i < 4; ++i) {
+        if (i == iv) continue;
+        const std::uint8_t fl = c->info().flags[i];
+        if ((fl & kNeed) != kNeed) continue;  // the outward side reports it
+        // Once: from its smallest asked vertex.
+        std::int64_t first = id;
+        for (int k = 1; k < 4; ++k) {
+          const std::int64_t u = c->vertex((i + k) & 3)->info().id;
+          if (u >= 0 && u < id && asked[u]) first = u;
+        }
+        if (first == id) emit(out, c, i, fl);
+      }
+    }
+  }
+  return out;
+}
+
+std::vector<std::int64_t> RestrictedDelaunay::take_touched() {
+  std::vector<std::int64_t> out;
+  for (std::size_t id = 0; id < samples_.size(); ++id)
+    if (touched_all_ || id >= touched_.size() || touched_[id])
+      out.push_back(static_cast<std::int64_t>(id));
+  std::fill(touched_.begin(), touched_.end(), 0);
+  touched_all_ = false;
   return out;
 }
 

@@ -224,6 +224,15 @@ class RestrictedDelaunay {
   // late rounds then need not visit every cell.
   FacetList facets_with(std::uint8_t mask) const;
 
+  // Restricted facets (as facets_with(0)) having a vertex among the m
+  // sample ids, each once; throws std::invalid_argument for an id out of range.
+  FacetList facets_around(const std::int64_t* ids, std::size_t m) const;
+
+  // Ids of the samples whose restricted facets may have changed since the
+  // last call (the vertices of every cell made since: a facet's status
+  // changes only with one of its cells), ascending; clears the list.
+  std::vector<std::int64_t> take_touched();
+
   // Each facet (sorted or not) as three vertex ids: is it a Delaunay facet?
   std::vector<std::uint8_t> is_facet(const std::int64_t* tri,
                                      std::size_t n) const;
@@ -371,6 +380,11 @@ class RestrictedDelaunay {
   // so a superset of the labelled facets while marked_whole_; entries whose
   // facet is gone or relabelled are dropped when read.
   mutable std::vector<std::array<std::int64_t, 3>> marked_;
+  // Per sample id: a vertex of a cell made since take_touched (sized in
+  // changed_facets, before any cell is marked); touched_all_ when a cell's
+  // vertex had no entry.
+  std::vector<std::uint8_t> touched_;
+  bool touched_all_ = false;
   mutable bool marked_whole_ = true;
   void mark(Cell_handle c, int i, std::uint8_t flags);
   void emit(FacetList& out, Cell_handle c, int i, std::uint8_t fl) const;

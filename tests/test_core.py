@@ -152,6 +152,44 @@ def test_labelled_facets_match_the_labelled_part_of_all_facets(share):
         rdt.insert(rng.uniform(-1, 1, (20, 3)))
 
 
+def test_facets_around_touched_samples_cover_every_changed_facet():
+    """facets_around(ids) is the part of facets(0) with a vertex among ids,
+    each facet once; after an insertion, every restricted facet that appeared
+    or vanished has a vertex among take_touched()."""
+    rng = np.random.default_rng(5)
+    rdt = _rdt_new()
+    rdt.insert(rng.uniform(-1, 1, (2000, 3)))
+
+    def label():
+        k = len(rdt.changed_facets()[0])
+        flags = RESTRICTED | rng.choice([0, OUTWARD], k)
+        rdt.update_facets(flags.astype(np.uint8), rng.uniform(-1, 1, (k, 3)))
+
+    label()
+    assert len(rdt.take_touched()) == 2000  # every sample is new
+    assert len(rdt.take_touched()) == 0  # cleared
+    for _ in range(4):
+        before = _as_set(rdt.facets(0)[0])
+        rdt.insert(rng.uniform(-1, 1, (15, 3)))
+        label()
+        touched = rdt.take_touched()
+        assert np.all(np.diff(touched) > 0)
+        assert 15 <= len(touched) < len(rdt.samples())
+        tri0, c0, fl0 = rdt.facets(0)
+        changed = np.array(sorted(before ^ _as_set(tri0)))
+        assert len(changed) > 0
+        assert np.all(np.isin(changed, touched).any(axis=1))
+        tri, centres, fl = rdt.facets_around(touched)
+        want = np.flatnonzero(np.isin(tri0, touched).any(axis=1))
+        key = {tuple(t): i for i, t in enumerate(tri0.tolist())}
+        idx = np.array([key[tuple(t)] for t in tri.tolist()])  # same orientation
+        np.testing.assert_array_equal(np.sort(idx), want)  # each once
+        np.testing.assert_array_equal(centres, c0[idx])
+        np.testing.assert_array_equal(fl, fl0[idx])
+    with pytest.raises(ValueError, match="out of range"):
+        rdt.facets_around(np.array([len(rdt.samples())]))
+
+
 def test_changed_facets_are_delaunay_facets_with_clipped_duals():
     rng = np.random.default_rng(3)
     rdt = _rdt_new(radius=1.5)

@@ -207,6 +207,14 @@ class RestrictedDelaunay:
         npt.NDArray[np.float64],  # (k, 3) surface centres
         npt.NDArray[np.uint8],  # (k,) flag bits
     ]: ...
+    def facets_around(
+        self, ids: npt.ArrayLike
+    ) -> tuple[
+        npt.NDArray[np.int64],  # (k, 3) outward-oriented vertex ids
+        npt.NDArray[np.float64],  # (k, 3) surface centres
+        npt.NDArray[np.uint8],  # (k,) flag bits
+    ]: ...
+    def take_touched(self) -> npt.NDArray[np.int64]: ...
     def all_facets(
         self,
     ) -> tuple[

@@ -32,9 +32,10 @@ from ..sampling.grid import check_sphere_near
 from ..sampling.screen import clear_in_core, slope_bound
 from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
+from ..topology.defects import ComplexDefects
 from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
-from .check import check_restricted
+from .check import CHECK_MAX_SAMPLES, check_restricted
 from .criteria import FacetCriteria
 from .deviation import DeviationStage
 from .feature_curves import kink_balls
@@ -223,9 +224,11 @@ class Mesher:
 
     def snapshot(self) -> Snapshot:
         if self._snap is None:
+            self.defects.check = self.check and len(self.vertices) <= CHECK_MAX_SAMPLES
             self._snap = Snapshot(
-                self.surface, self.rdt, self.vertices, self.memo, self.proofs, self.weights
-            )
+                self.surface, self.rdt, self.vertices, self.memo, self.proofs, self.weights,
+                self.defects,
+            )  # fmt: skip
         return self._snap
 
 
@@ -239,6 +242,7 @@ def _fresh(m: Mesher) -> None:
     m.samples = Samples(m.rdt)
     m.memo = LoopMemo()
     m.proofs = ProofMemo()
+    m.defects = ComplexDefects()
     m.pipeline = FacetPipeline(m.rdt, surface, m.criteria, m.workers, m.timer, clipped=m.clipped)
     m.ball_ids = np.zeros(0, np.int64)
     m.unresolved: list[np.ndarray] = []

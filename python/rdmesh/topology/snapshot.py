@@ -19,6 +19,7 @@ from .. import core
 from ..sampling.probes import Probes, unit_normals
 from ..surfaces.oracle import ImplicitSurface
 from .complex import ComplexStatus, complex_status
+from .defects import ComplexDefects
 from .loops import LoopMemo
 from .proven import proven_edge_test
 from .proven_cells import (
@@ -64,6 +65,7 @@ class Snapshot:
         memo: LoopMemo | None = None,
         proofs: ProofMemo | None = None,
         weights: np.ndarray | None = None,
+        defects: ComplexDefects | None = None,
     ) -> None:
         self.surface = surface
         self.rdt = rdt
@@ -72,6 +74,9 @@ class Snapshot:
         self.weights = weights
         self.memo = memo if memo is not None else LoopMemo()
         self.proofs = proofs
+        #: The complex's failing edges and vertices kept across rounds, if any.
+        self.defects = defects
+        self._defects_ready = False
         self._facets: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._radii: dict[int, np.ndarray] = {}
         self._tests: dict[tuple, Violations | None] = {}
@@ -86,12 +91,17 @@ class Snapshot:
         """Surface Delaunay ball radii of :meth:`facets` ``(mask)``."""
         if mask not in self._radii:
             tri, centres, _ = self.facets(mask)
-            d = centres - self.vertices[tri[:, 0]]
-            r2 = np.einsum("ij,ij->i", d, d)
-            if self.weights is not None:
-                r2 = np.maximum(r2 - self.weights[tri[:, 0]], 0.0)
-            self._radii[mask] = np.sqrt(r2)
+            self._radii[mask] = self.radii_of(tri, centres)
         return self._radii[mask]
+
+    def radii_of(self, tri: np.ndarray, centres: np.ndarray) -> np.ndarray:
+        """Ball radii of facets ``tri`` (outward-oriented, as the core gives
+        them) with surface centres ``centres`` (power radii with weights)."""
+        d = centres - self.vertices[tri[:, 0]]
+        r2 = np.einsum("ij,ij->i", d, d)
+        if self.weights is not None:
+            r2 = np.maximum(r2 - self.weights[tri[:, 0]], 0.0)
+        return np.sqrt(r2)
 
     @cached_property
     def status(self) -> ComplexStatus:
@@ -147,7 +157,23 @@ class Snapshot:
             self._tests[key] = self._run(kind, allow_boundary, probes, angle)
         return self._tests[key]
 
+    def _from_defects(self, kind: str, allow_boundary: bool) -> Violations:
+        """The edge or disk test from :attr:`defects`, brought up to date once."""
+        d = self.defects
+        if not self._defects_ready:
+            d.update(self)
+            self._defects_ready = True
+        if kind == "voronoi_facet":
+            table, rows = d.edges, d.edge_rows(allow_boundary)
+        else:
+            table = d.vertices
+            rows = np.ones(len(table.ids), bool)
+        centres, radii = table.picks(rows)
+        return Violations(kind, int(rows.sum()), centres, radii)
+
     def _run(self, kind, allow_boundary, probes, angle) -> Violations | None:
+        if kind in ("voronoi_facet", "disk") and self.defects is not None:
+            return self._from_defects(kind, allow_boundary)
         tri, centres, flags = self.facets(0)
         if kind == "voronoi_edge":
             return voronoi_edge_test(tri, centres, self.radii(0), flags, core.TOPO)

@@ -1,0 +1,178 @@
+"""The restricted complex's defects, kept from round to round.
+
+The edge test (T2: edges in other than two restricted facets) and the disk
+test (T3: vertices whose facets form more than one fan) need the edge and fan
+counts of the whole complex, which cost a pass over every restricted facet
+(0.2 s at 288k facets). Late rounds of a large run insert a few points each,
+so :class:`ComplexDefects` keeps the failing edges and vertices, each with
+its largest incident facet, and each round recounts only around the samples
+whose restricted facets may have changed (the core's touched vertices: those
+of every cell made since). An edge or vertex away from them has the same
+facets as before, so its entry stands. When the recount finds nothing, or
+the touched samples are many, every facet is counted again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._errors import InternalCheckError
+from .complex import complex_status
+
+#: Above this share of touched samples, every facet is counted again.
+FULL_SHARE = 0.05
+
+
+@dataclass
+class DefectTable:
+    """Failing elements, sorted by id, with their largest incident facet.
+
+    Attributes
+    ----------
+    ids : (m, 2) edge ends (smaller first) or (m, 1) vertex ids.
+    count : (m,) facets per edge, or fans per vertex.
+    facet : (m, 3) sorted vertex ids of the largest incident facet.
+    centre : (m, 3) its surface centre.
+    radius : (m,) its ball radius (power radius with protecting balls).
+    """
+
+    ids: np.ndarray
+    count: np.ndarray
+    facet: np.ndarray
+    centre: np.ndarray
+    radius: np.ndarray
+
+    def take(self, rows: np.ndarray) -> DefectTable:
+        return DefectTable(*(a[rows] for a in self._columns()))
+
+    def _columns(self) -> tuple[np.ndarray, ...]:
+        return self.ids, self.count, self.facet, self.centre, self.radius
+
+    def picks(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Centres and radii of the distinct largest facets of ``rows`` (by
+        facet, ascending)."""
+        _, first = np.unique(self.facet[rows], axis=0, return_index=True)
+        chosen = np.flatnonzero(rows)[first] if rows.dtype == bool else rows[first]
+        return self.centre[chosen], self.radius[chosen]
+
+
+class ComplexDefects:
+    """Failing edges and vertices of the restricted complex, updated incrementally.
+
+    Parameters
+    ----------
+    check : recount everything each update and compare (``RDMESH_CHECK=1``).
+    """
+
+    def __init__(self, check: bool = False) -> None:
+        self.check = check
+        self.edges: DefectTable | None = None
+        self.vertices: DefectTable | None = None
+        #: Updates that counted every facet, and those that counted locally.
+        self.full_counts = 0
+        self.local_counts = 0
+
+    def update(self, snap) -> None:
+        """Bring the tables to the snapshot's complex (once per snapshot)."""
+        rdt = snap.rdt
+        touched = rdt.take_touched()
+        n = len(snap.vertices)
+        if self.edges is None or len(touched) > FULL_SHARE * n:
+            self._full(snap)
+            return
+        self.local_counts += 1
+        tri, centres, _ = rdt.facets_around(touched)
+        near = np.zeros(n, bool)
+        near[touched] = True
+        edges, vertices = _tables(tri, centres, snap.radii_of(tri, centres), n, near)
+        old_e, old_v = self.edges, self.vertices
+        keep_e = ~(near[old_e.ids[:, 0]] | near[old_e.ids[:, 1]])
+        self.edges = _merged(old_e.take(keep_e), edges)
+        self.vertices = _merged(old_v.take(~near[old_v.ids[:, 0]]), vertices)
+        if not len(self.edges.ids) and not len(self.vertices.ids):
+            self._full(snap)  # confirm a clean complex on every facet
+        elif self.check:
+            local = (self.edges, self.vertices)
+            self._full(snap)
+            _compare(local, (self.edges, self.vertices))
+
+    def _full(self, snap) -> None:
+        self.full_counts += 1
+        tri, centres, _ = snap.facets(0)
+        self.edges, self.vertices = _tables(
+            tri, centres, snap.radii(0), len(snap.vertices), None, snap.status
+        )
+
+    def edge_rows(self, allow_boundary: bool) -> np.ndarray:
+        """(m,) bool: the edges failing T2 (in one facet counts unless allowed)."""
+        c = self.edges.count
+        return (c >= 3) | (c == 1) if not allow_boundary else c >= 3
+
+
+def _tables(tri, centres, radii, n, near, status=None) -> tuple[DefectTable, DefectTable]:
+    """Failing edges and vertices of the facets ``tri``; with ``near`` only
+    those with a vertex where it is True (the facets hold all of theirs)."""
+    tri = np.asarray(tri, np.int64)
+    st = complex_status(tri, n) if status is None else status
+    lo, hi = st.edge_key // n, st.edge_key % n
+    bad_e = st.edge_count != 2
+    if near is not None:
+        bad_e &= near[lo] | near[hi]
+    e = np.flatnonzero(bad_e)
+    f_e, slot = np.nonzero(_table(len(st.edge_key), e)[st.facet_edges])
+    edge_pick = _largest(st.facet_edges[f_e, slot], f_e, tri, radii)
+    bad_v = st.vertex_fans > 1
+    if near is not None:
+        bad_v &= near
+    v = np.flatnonzero(bad_v)
+    f_v, corner = np.nonzero(_table(n, v)[tri])
+    vertex_pick = _largest(tri[f_v, corner], f_v, tri, radii)
+    sorted_tri = np.sort(tri, axis=1)
+    edges = DefectTable(
+        np.column_stack([lo[e], hi[e]]), st.edge_count[e], sorted_tri[edge_pick],
+        centres[edge_pick], radii[edge_pick],
+    )  # fmt: skip
+    vertices = DefectTable(
+        v[:, None], st.vertex_fans[v], sorted_tri[vertex_pick], centres[vertex_pick],
+        radii[vertex_pick],
+    )  # fmt: skip
+    return edges, vertices
+
+
+def _table(n: int, ids: np.ndarray) -> np.ndarray:
+    out = np.zeros(n, bool)
+    out[ids] = True
+    return out
+
+
+def _largest(group: np.ndarray, facet: np.ndarray, tri: np.ndarray, radii: np.ndarray):
+    """For each distinct ``group`` (ascending), its ``facet`` of largest
+    radius; ties go to the largest sorted vertex ids, so the pick does not
+    depend on the order of the facets."""
+    if group.size == 0:
+        return np.zeros(0, np.int64)
+    t = np.sort(tri[facet], axis=1)
+    order = np.lexsort((t[:, 2], t[:, 1], t[:, 0], radii[facet], group))
+    g = group[order]
+    last = np.r_[g[1:] != g[:-1], True]
+    return facet[order][last]
+
+
+def _merged(kept: DefectTable, new: DefectTable) -> DefectTable:
+    """The rows of both, sorted by id."""
+    cols = zip(kept._columns(), new._columns(), strict=True)
+    cat = DefectTable(*(np.concatenate([a, b]) for a, b in cols))
+    order = np.lexsort(cat.ids.T[::-1])
+    return cat.take(order)
+
+
+def _compare(local, full) -> None:
+    for name, a, b in zip(("edge", "vertex"), local, full, strict=True):
+        same = all(np.array_equal(x, y) for x, y in zip(a._columns(), b._columns(), strict=True))
+        if not same:
+            raise InternalCheckError(
+                f"the {name} defects counted around the touched samples differ from a "
+                f"count over every facet ({len(a.ids)} against {len(b.ids)} rows)"
+            )
