@@ -45,6 +45,13 @@ def test_specks_volume_has_six_interpolant_components():
     vol = real_data.specks()
     surface = rdmesh.VolumeSurface(vol, isovalue=0.5)
     assert real_data._reference(surface)["components"] == 6
+    assert real_data._reference(surface, 3)["components"] == 6
+
+
+def test_reference_factor_must_be_positive(capsys):
+    with pytest.raises(SystemExit):
+        real_data.main(["--only", "volume", "--reference-factor", "0"])
+    assert "--reference-factor must be at least 1" in capsys.readouterr().err
 
 
 def test_alternating_runs_change_which_goes_first():
