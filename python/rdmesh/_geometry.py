@@ -54,3 +54,16 @@ def circumcentres(corners: np.ndarray) -> np.ndarray:
 def circumradii(corners: np.ndarray) -> np.ndarray:
     """Circumradius of each triangle, ``(k, 3, 3) -> (k,)``."""
     return np.linalg.norm(circumcentres(corners) - corners[:, 0], axis=1)
+
+
+def ball_radii(
+    vertices: np.ndarray, weights: np.ndarray | None, tri: np.ndarray, centres: np.ndarray
+) -> np.ndarray:
+    """Radius of each facet's surface Delaunay ball, ``(k,)``: the distance from
+    its centre to a corner, or with vertex weights the power radius
+    ``sqrt(max(|c - v|^2 - w, 0))`` (equal at all three corners)."""
+    d = centres - vertices[tri[:, 0]]
+    r2 = np.einsum("ij,ij->i", d, d)
+    if weights is not None:
+        r2 = np.maximum(r2 - weights[tri[:, 0]], 0.0)
+    return np.sqrt(r2)

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .._geometry import min_angles
+from .._geometry import ball_radii, min_angles
 from ..features.check import MeshFeatures
 from ..topology.complex import (
     component_topology,
@@ -192,11 +192,7 @@ def _from_facets(cls, samples, tri, centres, unresolved) -> SurfaceMesh:
 
 def _ball_radii(mesh: SurfaceMesh) -> np.ndarray:
     """:attr:`SurfaceMesh.ball_radii`."""
-    d = mesh.facet_centres - mesh.vertices[mesh.faces[:, 0]]
-    r2 = np.einsum("ij,ij->i", d, d)
-    if mesh.weights is not None:
-        r2 = np.maximum(r2 - mesh.weights[mesh.faces[:, 0]], 0.0)
-    return np.sqrt(r2)
+    return ball_radii(mesh.vertices, mesh.weights, mesh.faces, mesh.facet_centres)
 
 
 def _topology(mesh: SurfaceMesh) -> dict[str, Any]:

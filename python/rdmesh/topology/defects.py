@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import InternalCheckError
+from .._geometry import ball_radii
 from .complex import complex_status
 
 #: Above this share of touched samples, every facet is counted again.
@@ -86,7 +87,8 @@ class ComplexDefects:
         tri, centres, _ = rdt.facets_around(touched)
         near = np.zeros(n, bool)
         near[touched] = True
-        edges, vertices = _tables(tri, centres, snap.radii_of(tri, centres), n, near)
+        radii = ball_radii(snap.vertices, snap.weights, tri, centres)
+        edges, vertices = _tables(tri, centres, radii, n, near)
         old_e, old_v = self.edges, self.vertices
         keep_e = ~(near[old_e.ids[:, 0]] | near[old_e.ids[:, 1]])
         self.edges = _merged(old_e.take(keep_e), edges)
@@ -109,6 +111,15 @@ class ComplexDefects:
         """(m,) bool: the edges failing T2 (in one facet counts unless allowed)."""
         c = self.edges.count
         return (c >= 3) | (c == 1) if not allow_boundary else c >= 3
+
+    def failing(self, kind: str, allow_boundary: bool) -> tuple[int, np.ndarray, np.ndarray]:
+        """The edge ("voronoi_facet") or disk test's violation count, and the
+        centres and radii of the distinct largest facets at the violations."""
+        if kind == "voronoi_facet":
+            table, rows = self.edges, self.edge_rows(allow_boundary)
+        else:
+            table, rows = self.vertices, np.ones(len(self.vertices.ids), bool)
+        return (int(rows.sum()), *table.picks(rows))
 
 
 def _tables(tri, centres, radii, n, near, status=None) -> tuple[DefectTable, DefectTable]:

@@ -16,6 +16,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .. import core
+from .._geometry import ball_radii
 from ..sampling.probes import Probes, unit_normals
 from ..surfaces.oracle import ImplicitSurface
 from .complex import ComplexStatus, complex_status
@@ -91,17 +92,8 @@ class Snapshot:
         """Surface Delaunay ball radii of :meth:`facets` ``(mask)``."""
         if mask not in self._radii:
             tri, centres, _ = self.facets(mask)
-            self._radii[mask] = self.radii_of(tri, centres)
+            self._radii[mask] = ball_radii(self.vertices, self.weights, tri, centres)
         return self._radii[mask]
-
-    def radii_of(self, tri: np.ndarray, centres: np.ndarray) -> np.ndarray:
-        """Ball radii of facets ``tri`` (outward-oriented, as the core gives
-        them) with surface centres ``centres`` (power radii with weights)."""
-        d = centres - self.vertices[tri[:, 0]]
-        r2 = np.einsum("ij,ij->i", d, d)
-        if self.weights is not None:
-            r2 = np.maximum(r2 - self.weights[tri[:, 0]], 0.0)
-        return np.sqrt(r2)
 
     @cached_property
     def status(self) -> ComplexStatus:
@@ -159,17 +151,10 @@ class Snapshot:
 
     def _from_defects(self, kind: str, allow_boundary: bool) -> Violations:
         """The edge or disk test from :attr:`defects`, brought up to date once."""
-        d = self.defects
         if not self._defects_ready:
-            d.update(self)
+            self.defects.update(self)
             self._defects_ready = True
-        if kind == "voronoi_facet":
-            table, rows = d.edges, d.edge_rows(allow_boundary)
-        else:
-            table = d.vertices
-            rows = np.ones(len(table.ids), bool)
-        centres, radii = table.picks(rows)
-        return Violations(kind, int(rows.sum()), centres, radii)
+        return Violations(kind, *self.defects.failing(kind, allow_boundary))
 
     def _run(self, kind, allow_boundary, probes, angle) -> Violations | None:
         if kind in ("voronoi_facet", "disk") and self.defects is not None:
