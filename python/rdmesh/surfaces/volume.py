@@ -261,7 +261,9 @@ class VolumeSurface(VolumeOracle, ImplicitSurface):
         where it is a saddle value of the trilinear interpolant (its
         isosurface pinches there); it is then moved off every saddle value,
         by at most 1 % of the data range, towards a smaller inside, and a
-        warning is logged (:mod:`rdmesh.surfaces.trilinear`).
+        warning is logged (:mod:`rdmesh.surfaces.trilinear`). Where saddle
+        values are dense (8-bit maps) the value chosen can still lie near
+        one, and passing it back in as ``isovalue`` may move it again.
     requested_isovalue : float
         The isovalue asked for (or the default).
     value_scale : float
