@@ -258,12 +258,10 @@ class VolumeSurface(VolumeOracle, ImplicitSurface):
     ----------
     isovalue : float
         The level meshed: the one asked for, except with linear interpolation
-        where it is a saddle value of the trilinear interpolant (its
-        isosurface pinches there); it is then moved off every saddle value,
-        by at most 1 % of the data range, towards a smaller inside, and a
-        warning is logged (:mod:`rdmesh.surfaces.trilinear`). Where saddle
-        values are dense (8-bit maps) the value chosen can still lie near
-        one, and passing it back in as ``isovalue`` may move it again.
+        near a saddle value of the trilinear interpolant (where it pinches):
+        then, with a warning, the value at most 1 % of the data range towards
+        a smaller inside farthest from every saddle value (it can still be
+        near one on dense data, and is not a fixed point of this rule).
     requested_isovalue : float
         The isovalue asked for (or the default).
     value_scale : float
