@@ -35,10 +35,7 @@ class ComplexStatus:
 
     def bad_edges(self, allow_boundary: bool) -> np.ndarray:
         """Indices of singular edges, plus boundary ones unless allowed."""
-        bad = self.edge_count >= 3
-        if not allow_boundary:
-            bad |= self.edge_count == 1
-        return np.flatnonzero(bad)
+        return np.flatnonzero(failing_edges(self.edge_count, allow_boundary))
 
 
 def complex_status(faces: np.ndarray, n_vertices: int) -> ComplexStatus:
@@ -91,21 +88,49 @@ def _degenerate(faces: np.ndarray) -> bool:
     return bool(np.any((f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 2] == f[:, 0])))
 
 
-def largest_incident(group: np.ndarray, facet: np.ndarray, radius: np.ndarray) -> np.ndarray:
-    """For each distinct value of ``group``, the ``facet`` with the largest radius.
+def failing_edges(edge_count: np.ndarray, allow_boundary: bool) -> np.ndarray:
+    """(m,) bool: singular edges (3 or more facets), and boundary ones (1)
+    unless allowed."""
+    bad = edge_count >= 3
+    if not allow_boundary:
+        bad |= edge_count == 1
+    return bad
+
+
+def marked(n: int, ids: np.ndarray) -> np.ndarray:
+    """(n,) bool, True at ``ids``: a lookup table, cheaper than ``np.isin``
+    over every facet when the ids are many."""
+    table = np.zeros(n, bool)
+    table[ids] = True
+    return table
+
+
+def largest_per_group(
+    group: np.ndarray, facet: np.ndarray, radius: np.ndarray, ties: tuple[np.ndarray, ...] = ()
+) -> np.ndarray:
+    """For each distinct value of ``group`` (ascending), the ``facet`` with the
+    largest radius; among equal radii the one with the largest ``ties`` keys
+    (per facet, the first compared first), else the last given.
 
     Parameters
     ----------
     group : (m,) group id of each incidence.
     facet : (m,) facet index of each incidence.
     radius : per-facet radii, indexed by ``facet``.
+    ties : per-facet keys, indexed by ``facet``.
     """
     if group.size == 0:
         return np.zeros(0, np.int64)
-    order = np.lexsort((radius[facet], group))
+    keys = tuple(t[facet] for t in reversed(ties))
+    order = np.lexsort((*keys, radius[facet], group))
     g = group[order]
     last = np.r_[g[1:] != g[:-1], True]
-    return np.unique(facet[order][last])
+    return facet[order][last]
+
+
+def largest_incident(group: np.ndarray, facet: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """The distinct facets that :func:`largest_per_group` picks, ascending."""
+    return np.unique(largest_per_group(group, facet, radius))
 
 
 def components(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:

@@ -20,7 +20,7 @@ import numpy as np
 
 from .._errors import InternalCheckError
 from .._geometry import ball_radii
-from .complex import complex_status
+from .complex import complex_status, failing_edges, largest_per_group, marked
 
 #: Above this share of touched samples, every facet is counted again.
 FULL_SHARE = 0.05
@@ -109,8 +109,7 @@ class ComplexDefects:
 
     def edge_rows(self, allow_boundary: bool) -> np.ndarray:
         """(m,) bool: the edges failing T2 (in one facet counts unless allowed)."""
-        c = self.edges.count
-        return (c >= 3) | (c == 1) if not allow_boundary else c >= 3
+        return failing_edges(self.edges.count, allow_boundary)
 
     def failing(self, kind: str, allow_boundary: bool) -> tuple[int, np.ndarray, np.ndarray]:
         """The edge ("voronoi_facet") or disk test's violation count, and the
@@ -128,19 +127,20 @@ def _tables(tri, centres, radii, n, near, status=None) -> tuple[DefectTable, Def
     tri = np.asarray(tri, np.int64)
     st = complex_status(tri, n) if status is None else status
     lo, hi = st.edge_key // n, st.edge_key % n
-    bad_e = st.edge_count != 2
+    bad_e = failing_edges(st.edge_count, allow_boundary=False)
     if near is not None:
         bad_e &= near[lo] | near[hi]
     e = np.flatnonzero(bad_e)
-    f_e, slot = np.nonzero(_table(len(st.edge_key), e)[st.facet_edges])
-    edge_pick = _largest(st.facet_edges[f_e, slot], f_e, tri, radii)
+    f_e, slot = np.nonzero(marked(len(st.edge_key), e)[st.facet_edges])
+    sorted_tri = np.sort(tri, axis=1)
+    ties = tuple(sorted_tri.T)  # not the facets' order
+    edge_pick = largest_per_group(st.facet_edges[f_e, slot], f_e, radii, ties)
     bad_v = st.vertex_fans > 1
     if near is not None:
         bad_v &= near
     v = np.flatnonzero(bad_v)
-    f_v, corner = np.nonzero(_table(n, v)[tri])
-    vertex_pick = _largest(tri[f_v, corner], f_v, tri, radii)
-    sorted_tri = np.sort(tri, axis=1)
+    f_v, corner = np.nonzero(marked(n, v)[tri])
+    vertex_pick = largest_per_group(tri[f_v, corner], f_v, radii, ties)
     edges = DefectTable(
         np.column_stack([lo[e], hi[e]]), st.edge_count[e], sorted_tri[edge_pick],
         centres[edge_pick], radii[edge_pick],
@@ -150,25 +150,6 @@ def _tables(tri, centres, radii, n, near, status=None) -> tuple[DefectTable, Def
         radii[vertex_pick],
     )  # fmt: skip
     return edges, vertices
-
-
-def _table(n: int, ids: np.ndarray) -> np.ndarray:
-    out = np.zeros(n, bool)
-    out[ids] = True
-    return out
-
-
-def _largest(group: np.ndarray, facet: np.ndarray, tri: np.ndarray, radii: np.ndarray):
-    """For each distinct ``group`` (ascending), its ``facet`` of largest
-    radius; ties go to the largest sorted vertex ids, so the pick does not
-    depend on the order of the facets."""
-    if group.size == 0:
-        return np.zeros(0, np.int64)
-    t = np.sort(tri[facet], axis=1)
-    order = np.lexsort((t[:, 2], t[:, 1], t[:, 0], radii[facet], group))
-    g = group[order]
-    last = np.r_[g[1:] != g[:-1], True]
-    return facet[order][last]
 
 
 def _merged(kept: DefectTable, new: DefectTable) -> DefectTable:

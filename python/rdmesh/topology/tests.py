@@ -54,7 +54,7 @@ from .._tol import SHOT_ATOL, SHOT_OFFSET, SILHOUETTE_SLACK
 from .._vectors import unit_rows
 from ..sampling.probes import Probes
 from ..sampling.roots import SegmentSamples, line_crossings
-from .complex import largest_incident
+from .complex import largest_incident, marked
 from .loops import loop_test
 
 #: The tests, in repair order.
@@ -96,21 +96,13 @@ def voronoi_edge_test(tri, centres, radii, flags, topo_bit: int) -> Violations:
     return Violations("voronoi_edge", int(bad.sum()), centres[bad], radii[bad])
 
 
-def _marked(n: int, ids: np.ndarray) -> np.ndarray:
-    """(n,) bool, True at ``ids``: a lookup table, cheaper than ``np.isin``
-    over every facet when the ids are many."""
-    table = np.zeros(n, bool)
-    table[ids] = True
-    return table
-
-
 def voronoi_facet_test(status, centres, radii, allow_boundary: bool = False) -> Violations:
     """T2 crossing count: complex edges with other than 2 restricted triangles
     (only more than 2 with ``allow_boundary``, as CGAL's Manifold_with_boundary_tag)."""
     bad = status.bad_edges(allow_boundary)
     if bad.size == 0:
         return _none("voronoi_facet")
-    f_idx, slot = np.nonzero(_marked(len(status.edge_key), bad)[status.facet_edges])
+    f_idx, slot = np.nonzero(marked(len(status.edge_key), bad)[status.facet_edges])
     pick = largest_incident(status.facet_edges[f_idx, slot], f_idx, radii)
     return Violations("voronoi_facet", int(bad.size), centres[pick], radii[pick])
 
@@ -128,7 +120,7 @@ def disk_test(status, tri, centres, radii) -> Violations:
     bad = np.flatnonzero(status.vertex_fans > 1)
     if bad.size == 0:
         return _none("disk")
-    f_idx, corner = np.nonzero(_marked(len(status.vertex_fans), bad)[tri])
+    f_idx, corner = np.nonzero(marked(len(status.vertex_fans), bad)[tri])
     pick = largest_incident(tri[f_idx, corner], f_idx, radii)
     return Violations("disk", int(bad.size), centres[pick], radii[pick])
 
