@@ -189,6 +189,29 @@ def test_rising_matches_gradient():
     assert np.array_equal(order, np.arange(len(order)))
 
 
+def test_derivative_from_the_last_bracket_matches_the_gradient():
+    """Each crossing's slope across its search's last bracket is f's derivative
+    along the segment there (no extra evaluation); NaN where that bracket is
+    wider than a central difference's span (a search that stopped on f == 0)."""
+    rng = np.random.default_rng(5)
+    s = SURFACES["tanglecube"].make()
+    k = 500
+    o, d, length = _random_segments(rng, k, spread=3.0)
+    cr, _ = _crossings(s, o, d, 2 * length, np.full(k, 64), 1e-10 * s.radius)
+    assert len(cr.segment) > 200 and np.isfinite(cr.derivative).all()
+    exact = np.einsum("ij,ij->i", s.gradient(cr.point), d[cr.segment])
+    scale = np.linalg.norm(s.gradient(cr.point), axis=1)
+    assert np.abs(cr.derivative - exact).max() <= 1e-4 * scale.max()
+    assert np.array_equal(cr.derivative > 0, cr.rising)
+    # A sample exactly on the surface ends a search at once, bracket unshrunk.
+    line = rdmesh.ImplicitSurface(lambda p: p[:, 0] - 0.5, ((0, 0, 0), 2.0))
+    one = line_crossings(
+        line, np.array([[0.0, 0, 0]]), np.array([[1.0, 0, 0]]),
+        SegmentSamples.uniform(np.array([1.0]), 3), 1e-10,
+    )  # fmt: skip
+    assert np.allclose(one.s, 0.5) and np.isnan(one.derivative).all()
+
+
 def test_no_crossings():
     s = SURFACES["sphere"].make()
     o = np.array([[1.5, 1.5, 0.0], [0.0, 0.0, 0.0]])

@@ -229,11 +229,19 @@ def test_cos_by_slope_lower_bounds_the_cosine():
     u[:20] = np.cross(n[:20], u[:20])  # tangent to the sphere there
     u[:20] /= np.linalg.norm(u[:20], axis=1)[:, None]
     bound = np.full(200, 2.0)  # |grad f| = 1 <= 2
-    cos = _cos_by_slope(SPHERE, n, u, bound)
+    cos = _cos_by_slope(SPHERE, n, u, bound, np.full(200, np.nan))
     true = np.abs(np.einsum("ij,ij->i", n, u))
     shown = ~np.isnan(cos)
     assert np.isnan(cos[:20]).all() and shown.sum() > 150
     np.testing.assert_allclose(cos[shown], true[shown] / 2.0, atol=1e-6)
+    # Known derivatives (the root search's last brackets) cost no evaluation.
+    before = SPHERE.evaluations
+    known = np.einsum("ij,ij->i", n, u)
+    known[::2] = np.nan
+    again = _cos_by_slope(SPHERE, n, u, bound, known)
+    assert SPHERE.evaluations - before == 2 * 100
+    np.testing.assert_allclose(again[shown], cos[shown], atol=1e-6)
+    assert np.array_equal(np.isnan(again), ~shown)
 
 
 def test_f_alone_mesh_unchanged_with_fewer_gradients(monkeypatch):
@@ -248,7 +256,7 @@ def test_f_alone_mesh_unchanged_with_fewer_gradients(monkeypatch):
         return rdmesh.mesh_surface(s, radius_bound=0.08, distance_bound=0.008)
 
     on = run()
-    monkeypatch.setattr(facets, "_cos_by_slope", lambda s, p, u, b: np.full(len(p), np.nan))
+    monkeypatch.setattr(facets, "_cos_by_slope", lambda s, p, u, b, k: np.full(len(p), np.nan))
     off = run()
     np.testing.assert_array_equal(on.vertices, off.vertices)
     np.testing.assert_array_equal(on.faces, off.faces)

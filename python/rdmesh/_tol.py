@@ -62,6 +62,9 @@ DEGENERATE_HESSIAN = 1e-6
 SINGULAR_F = 1e-6
 #: |grad f| below this (times the median probe gradient) vanishes.
 SINGULAR_GRADIENT = 1e-4
+#: Newton stops at a start whose |grad f| is below this (same unit): a critical
+#: point, where a degenerate Hessian would only let rounding move it along.
+SINGULAR_SETTLED = 1e-7
 #: Levenberg damping of the singular-point Newton step (relative to trace(H^T H)).
 SINGULAR_DAMPING = 1e-12
 #: Singular points closer than this (times R) are one.

@@ -161,12 +161,14 @@ def evaluate_facets(
             more.segment, more.failed = again[more.segment], again[more.failed]
             order = np.argsort(np.r_[cr.segment, more.segment], kind="stable")
             cos = np.r_[cos, np.full(len(more.segment), np.nan)][order]
+            known = np.full(len(cr.segment), np.nan)
             cr = Crossings(
                 np.r_[cr.segment, more.segment][order],
                 np.r_[cr.s, more.s][order],
                 np.r_[cr.point, more.point][order],
                 np.r_[cr.rising, more.rising][order],
                 more.failed,
+                np.r_[known, _derivatives(more)][order],
             )
     out.clean = np.ones(k, bool)
     out.clean[cr.failed] = False
@@ -195,10 +197,14 @@ def evaluate_facets(
     trusted = np.ones(len(pick), bool)
     if surface.gradient is None and slope is not None:
         # Central differences of f cost six evaluations; the derivative along
-        # the segment two, and it shows most crossings transversal.
+        # the segment (from the root search's last bracket, else two) shows
+        # most crossings transversal.
         idx = np.flatnonzero(np.isnan(cos))
         if len(idx):
-            cos[idx] = _cos_by_slope(surface, cr.point[pick[idx]], u[rows[idx]], slope[rows[idx]])
+            cos[idx] = _cos_by_slope(
+                surface, cr.point[pick[idx]], u[rows[idx]], slope[rows[idx]],
+                _derivatives(cr)[pick[idx]],
+            )  # fmt: skip
     ask = np.flatnonzero(np.isnan(cos))
     if len(ask):
         g = surface.grad(cr.point[pick[ask]])
@@ -272,17 +278,29 @@ def _all_samples(surface, seg, u, end_values, samples):
     return line_crossings(surface, seg[:, 0], u, flat, xatol, interior_values, end_values)
 
 
-def _cos_by_slope(surface, points, u, bound):
-    """At crossings ``points`` of segments along ``u``: ``|f'(x; u)| / L``
-    (a central difference, two evaluations), a lower bound on ``|cos|``
-    between ``u`` and the gradient wherever ``|grad f| <= L`` (``bound``);
-    NaN where that does not show the crossing transversal (then the gradient
-    decides)."""
-    h = GRADIENT_STEP * surface.radius
-    v = surface(np.concatenate([points + h * u, points - h * u])).reshape(2, -1)
+def _derivatives(cr: Crossings) -> np.ndarray:
+    """``cr.derivative``, NaN throughout where it is not known."""
+    return np.full(len(cr.segment), np.nan) if cr.derivative is None else cr.derivative
+
+
+def _cos_by_slope(surface, points, u, bound, known):
+    """At crossings ``points`` of segments along ``u``: ``|f'(x; u)| / L``, a
+    lower bound on ``|cos|`` between ``u`` and the gradient wherever
+    ``|grad f| <= L`` (``bound``); NaN where that does not show the crossing
+    transversal (then the gradient decides). ``f'`` is ``known`` (the slope
+    across the root search's last bracket) where not NaN, else a central
+    difference (two evaluations). Either is ``f'`` at a point within
+    ``GRADIENT_STEP R`` of the crossing (mean value theorem)."""
+    d = np.array(known, dtype=float)
+    ask = np.flatnonzero(np.isnan(d))
+    if len(ask):
+        h = GRADIENT_STEP * surface.radius
+        p, v = points[ask], u[ask]
+        f = surface(np.concatenate([p + h * v, p - h * v])).reshape(2, -1)
+        d[ask] = (f[0] - f[1]) / (2.0 * h)
     cos = np.full(len(points), np.nan)
     ok = np.isfinite(bound) & (bound > 0)
-    cos[ok] = np.abs(v[0, ok] - v[1, ok]) / (2.0 * h * bound[ok])
+    cos[ok] = np.abs(d[ok]) / bound[ok]
     return np.where(cos >= TANGENCY_COS, cos, np.nan)
 
 

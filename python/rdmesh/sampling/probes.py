@@ -33,10 +33,12 @@ class Probes:
 
 
 def unit_normals(surface: ImplicitSurface, x: np.ndarray) -> np.ndarray:
-    """Unit gradients at ``(n, 3)`` points; zero rows where the gradient is zero."""
+    """Unit gradients at ``(n, 3)`` points; zero rows where the gradient is zero.
+    Without a gradient function, by forward differences (four evaluations per
+    point, not six: a direction needs no more)."""
     if len(x) == 0:
         return np.zeros((0, 3))
-    return unit_rows(surface.grad(x))
+    return unit_rows(surface.grad(x, order=1))
 
 
 #: Newton projections per probe.

@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from scipy.optimize import elementwise
 
 from .. import core
-from .._tol import DIP_FRACTION
+from .._tol import DIP_FRACTION, GRADIENT_STEP
 from ..surfaces.oracle import ImplicitSurface
 
 log = logging.getLogger("rdmesh")
@@ -44,6 +45,10 @@ class Crossings:
     #: Segments with a bracket whose root search did not converge: a sign
     #: change lies there, but no crossing of it is reported.
     failed: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    #: (m,) ``f``'s slope along the segment across the search's last bracket
+    #: (the derivative somewhere in it), NaN where that bracket is wider than
+    #: a central difference's span; None where not known.
+    derivative: np.ndarray | None = None
 
     def count(self, n_segments: int) -> np.ndarray:
         """Number of crossings on each of ``n_segments`` segments."""
@@ -144,13 +149,14 @@ def line_crossings(
     # search sees one function.
     last = samples.s[samples.offsets[1:] - 1]
     f_hi = np.where(hi == last[seg], np.nan, f_hi)
-    root, ok = refine_brackets(surface, origin[seg], direction[seg], lo, hi, xatol, (f_lo, f_hi))
+    found = search_brackets(surface, origin[seg], direction[seg], lo, hi, xatol, (f_lo, f_hi))
+    ok = found.converged
     failed = np.unique(seg[~ok])
-    seg, root, rising = seg[ok], root[ok], rising[ok]
+    seg, root, rising, slope = seg[ok], found.root[ok], rising[ok], found.derivative[ok]
     order = np.lexsort((root, seg))
-    seg, root, rising = seg[order], root[order], rising[order]
+    seg, root, rising, slope = seg[order], root[order], rising[order], slope[order]
     point = origin[seg] + root[:, None] * direction[seg]
-    return Crossings(seg, root, point, rising, failed)
+    return Crossings(seg, root, point, rising, failed, slope)
 
 
 def _line_function(surface):
@@ -188,10 +194,29 @@ def _coords(o: np.ndarray, d: np.ndarray) -> tuple:
     return (o[:, 0], o[:, 1], o[:, 2], d[:, 0], d[:, 1], d[:, 2])
 
 
+class BracketSearch(NamedTuple):
+    """Roots found in brackets: each root ``s``, whether its search converged,
+    and ``f``'s slope across its last bracket (see :attr:`Crossings.derivative`)."""
+
+    root: np.ndarray
+    converged: np.ndarray
+    derivative: np.ndarray
+
+
 def refine_brackets(surface, o, d, lo, hi, xatol, known=None):
     """Roots of ``f(o + s d)`` in the brackets ``[lo, hi]``: (s, converged).
     ``known``: f at ``lo`` and at ``hi`` where known (NaN elsewhere), which
     the search then takes instead of evaluating it."""
+    found = search_brackets(surface, o, d, lo, hi, xatol, known)
+    return found.root, found.converged
+
+
+def search_brackets(surface, o, d, lo, hi, xatol, known=None) -> BracketSearch:
+    """:func:`refine_brackets`, with the slope of ``f`` across each search's
+    last bracket: by the mean value theorem the derivative along ``d`` at a
+    point of that bracket, which holds the root; it costs no evaluation
+    (NaN where the bracket is wider than ``2 GRADIENT_STEP R``, the span of
+    a central difference)."""
     g = _line_function(surface)
     if known is not None:
         g = _known_first(g, [(lo, known[0]), (hi, known[1])])
@@ -210,7 +235,12 @@ def refine_brackets(surface, o, d, lo, hi, xatol, known=None):
             len(ok),
             sorted(set(res.status[~ok].tolist())),
         )
-    return res.x, ok
+    (a, b), (fa, fb) = res.bracket, res.f_bracket
+    width = b - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = (fb - fa) / width
+    narrow = (width > 0) & (width <= 2.0 * GRADIENT_STEP * surface.radius) & np.isfinite(slope)
+    return BracketSearch(res.x, ok, np.where(narrow, slope, np.nan))
 
 
 def _valleys(surface, origin, direction, seg, lo, hi, inside, a_lo, a_hi):
@@ -271,4 +301,7 @@ def _split_dips(surface, origin, direction, seg, x1, x2, x3, sgn):
 
 
 def _empty() -> Crossings:
-    return Crossings(np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 3)), np.zeros(0, bool))
+    return Crossings(
+        np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 3)), np.zeros(0, bool),
+        derivative=np.zeros(0),
+    )  # fmt: skip

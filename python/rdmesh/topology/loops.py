@@ -277,10 +277,11 @@ def _crossing_facets(status, n_facets):
 def _gradients(surface, points, rows):
     """``surface.grad(points[rows])``, in chunks of :data:`GRAD_CHUNK` rows
     (the gradient's temporaries for every facet at once would set the
-    test's peak memory)."""
+    test's peak memory); forward differences without a gradient function
+    (the screen and Newton's seeds need no more)."""
     g = np.empty((len(rows), 3))
     for lo in range(0, len(rows), GRAD_CHUNK):
-        g[lo : lo + GRAD_CHUNK] = surface.grad(points[rows[lo : lo + GRAD_CHUNK]])
+        g[lo : lo + GRAD_CHUNK] = surface.grad(points[rows[lo : lo + GRAD_CHUNK]], order=1)
     return g
 
 
