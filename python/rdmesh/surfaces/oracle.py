@@ -171,11 +171,26 @@ class ImplicitSurface:
     def grad(self, points: np.ndarray, order: int = 2) -> np.ndarray:
         """Gradient of ``f`` at ``(N, 3)`` points, analytic or by finite differences.
 
-        Without a ``gradient`` function, differences of ``f`` with step
-        ``1e-6 R``: central for ``order=2`` (six evaluations per point), forward
-        for ``order=1`` (four, ``f`` at the point included; an error about
-        ``1e-6 R`` times the curvature, relative). ``order`` does not change a
-        given gradient.
+        Parameters
+        ----------
+        points : (N, 3) array
+        order : {2, 1}
+            Without a ``gradient`` function, differences of ``f`` with step
+            ``1e-6 R``: central for 2 (six evaluations per point), forward for
+            1 (four, ``f`` at the point included; a relative error about
+            ``1e-6 R`` times the curvature, enough for a direction). A given
+            gradient is used either way.
+
+        Returns
+        -------
+        (N, 3) float64
+
+        Raises
+        ------
+        ValueError
+            ``order`` not 1 or 2.
+        rdmesh.OracleError
+            ``f`` or the gradient raised or returned non-finite values.
         """
         if order not in (1, 2):
             raise ValueError(f"order must be 1 or 2, got {order!r}")
