@@ -9,7 +9,7 @@ import numpy as np
 from .._newton import damped_step
 from .._tol import ON_SURFACE, TINY
 from .._vectors import row_norms, unit_rows
-from ..surfaces.oracle import ImplicitSurface
+from ..surfaces.oracle import ImplicitSurface, forward_gradient
 
 
 @dataclass
@@ -38,7 +38,7 @@ def unit_normals(surface: ImplicitSurface, x: np.ndarray) -> np.ndarray:
     point, not six: a direction needs no more)."""
     if len(x) == 0:
         return np.zeros((0, 3))
-    return unit_rows(surface.grad(x, order=1))
+    return unit_rows(forward_gradient(surface, x))
 
 
 #: Newton projections per probe.

@@ -53,6 +53,7 @@ from .._tol import (
     TINY,
 )
 from .._vectors import row_norms
+from ..surfaces.oracle import forward_gradient
 from .complex import ComplexStatus
 
 #: Newton iterations per seed (seeds leave early when they converge or stray).
@@ -281,7 +282,7 @@ def _gradients(surface, points, rows):
     (the screen and Newton's seeds need no more)."""
     g = np.empty((len(rows), 3))
     for lo in range(0, len(rows), GRAD_CHUNK):
-        g[lo : lo + GRAD_CHUNK] = surface.grad(points[rows[lo : lo + GRAD_CHUNK]], order=1)
+        g[lo : lo + GRAD_CHUNK] = forward_gradient(surface, points[rows[lo : lo + GRAD_CHUNK]])
     return g
 
 
