@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 import rdmesh
 import rdmesh.refine.methods as methods
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rdmesh.sampling.volume_components import _roots, volume_components
 from rdmesh.surfaces.volume import tensor_spline
 from scipy.sparse import coo_matrix
@@ -215,6 +217,42 @@ def test_linear_mask_is_closed_with_the_interpolant_components():
     want = reference_components(vol, "linear", iso=surface.isovalue)
     assert rep["components"] == want[0]
     assert sum(rep["euler"]) == want[1]
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    smooth=st.sampled_from([0.0, 1.0, 3.0]),
+    levels=st.sampled_from([2, 4, 256]),
+    where=st.floats(0.05, 0.95),
+    inside=st.sampled_from(["greater", "less"]),
+)
+def test_regular_isovalue_is_kept_when_passed_back(seed, smooth, levels, where, inside):
+    """The isovalue chosen off the saddle values is its own choice: passed back
+    it is kept, so a user can mesh the reported isovalue again. It moves
+    towards a smaller inside by less than MAX_SHIFT of the range, and lies
+    no nearer a saddle value than the value asked for."""
+    from rdmesh.surfaces.trilinear import MAX_SHIFT, SINGULAR_WINDOW, regular_isovalue
+    from rdmesh.surfaces.trilinear import saddle_values as saddles
+    from scipy.ndimage import gaussian_filter
+
+    rng = np.random.default_rng(seed)
+    vol = rng.random((12, 12, 12))
+    vol = gaussian_filter(vol, smooth) if smooth else vol
+    vol = np.round(vol * (levels - 1)) / (levels - 1)  # quantised, as 8-bit data are
+    lo, hi = vol.min(), vol.max()
+    if hi == lo:
+        return
+    iso = lo + where * (hi - lo)
+    first = regular_isovalue(vol, iso, inside)
+    assert regular_isovalue(vol, first, inside) == first
+    shift = (first - iso) * (1.0 if inside == "greater" else -1.0)
+    assert 0.0 <= shift < MAX_SHIFT * (hi - lo)
+    near = saddles(vol, lo, hi)
+    if len(near):
+        gap = np.min(np.abs(near - first))
+        asked = np.min(np.abs(near - iso))
+        assert gap >= min(asked, MAX_SHIFT * (hi - lo)) or asked >= SINGULAR_WINDOW * (hi - lo)
 
 
 @pytest.mark.slow

@@ -26,7 +26,7 @@ import numpy as np
 SINGULAR_WINDOW = 1e-3
 #: The isovalue moves by at most this (times the data range).
 MAX_SHIFT = 1e-2
-#: Candidate shifts tried between 0 and MAX_SHIFT.
+#: Candidate isovalues: multiples of MAX_SHIFT / CANDIDATES, in blocks of this many.
 CANDIDATES = 64
 
 
@@ -80,23 +80,38 @@ def regular_isovalue(volume: np.ndarray, isovalue: float, inside: str) -> float:
     -------
     float
         ``isovalue`` itself when no saddle value is within
-        :data:`SINGULAR_WINDOW` of it (times the data range); otherwise the
-        value within :data:`MAX_SHIFT` of it, on the inside's shrinking side,
-        farthest from every saddle value.
+        :data:`SINGULAR_WINDOW` of it (times the data range). Otherwise the
+        candidate farthest from every saddle value (distances capped at
+        :data:`MAX_SHIFT`; ties to the smaller shift), among ``isovalue`` and
+        the multiples of ``MAX_SHIFT / CANDIDATES`` (times the range) beyond it
+        on the inside's shrinking side, in its block of :data:`CANDIDATES` of
+        them: so it moves by less than ``MAX_SHIFT``, and passing the result
+        back returns it unchanged (its candidates are some of the first
+        call's, and the distances the same).
     """
     span = float(volume.max() - volume.min())
     window = SINGULAR_WINDOW * span
     direction = 1.0 if inside == "greater" else -1.0
     reach = MAX_SHIFT * span
-    near = saddle_values(volume, isovalue - reach - window, isovalue + reach + window)
+    # Every saddle value within reach of every candidate (all within reach beyond).
+    lo, hi = sorted(
+        (isovalue - direction * (reach + window), isovalue + direction * (2 * reach + window))
+    )
+    near = saddle_values(volume, lo, hi)
     if not len(near) or np.min(np.abs(near - isovalue)) >= window:
         return isovalue
-    shifts = isovalue + direction * reach * np.arange(1, CANDIDATES + 1) / CANDIDATES
-    shifts = shifts[(shifts > volume.min()) & (shifts < volume.max())]
-    if not len(shifts):
-        return isovalue
-    gap = np.min(np.abs(shifts[:, None] - near[None, :]), axis=1)
-    return float(shifts[int(np.argmax(gap))])
+    step = reach / CANDIDATES
+    t = direction * isovalue / step
+    if abs(t - np.round(t)) <= 1e-9 * max(1.0, abs(t)):
+        t = float(np.round(t))  # a value returned before: its own multiple
+    block = np.floor(t / CANDIDATES) * CANDIDATES
+    j = np.arange(block, block + CANDIDATES)
+    cand = np.r_[isovalue, direction * (j[j > t] * step)]
+    inner = (cand > volume.min()) & (cand < volume.max())
+    inner[0] = True
+    cand = cand[inner]
+    gap = np.minimum(np.min(np.abs(cand[:, None] - near[None, :]), axis=1), reach)
+    return float(cand[int(np.argmax(gap))])
 
 
 def body_saddles(*corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -259,9 +259,9 @@ class VolumeSurface(VolumeOracle, ImplicitSurface):
     isovalue : float
         The level meshed: the one asked for, except with linear interpolation
         near a saddle value of the trilinear interpolant (where it pinches):
-        then, with a warning, the value at most 1 % of the data range towards
-        a smaller inside farthest from every saddle value (it can still be
-        near one on dense data, and is not a fixed point of this rule).
+        then, with a warning, a value within 1 % of the data range towards a
+        smaller inside, far from saddle values (on dense data still near
+        one); passed back as ``isovalue``, it is kept.
     requested_isovalue : float
         The isovalue asked for (or the default).
     value_scale : float
