@@ -242,6 +242,11 @@ def test_cos_by_slope_lower_bounds_the_cosine():
     assert SPHERE.evaluations - before == 2 * 100
     np.testing.assert_allclose(again[shown], cos[shown], atol=1e-6)
     assert np.array_equal(np.isnan(again), ~shown)
+    # A known slope above the bound is rounding, not a slope: differences decide.
+    before = SPHERE.evaluations
+    steep = np.full(200, 1e3)
+    np.testing.assert_array_equal(_cos_by_slope(SPHERE, n, u, bound, steep), cos)
+    assert SPHERE.evaluations - before == 2 * 200
 
 
 def test_f_alone_mesh_unchanged_with_fewer_gradients(monkeypatch):

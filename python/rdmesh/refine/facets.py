@@ -290,16 +290,20 @@ def _cos_by_slope(surface, points, u, bound, known):
     transversal (then the gradient decides). ``f'`` is ``known`` (the slope
     across the root search's last bracket) where not NaN, else a central
     difference (two evaluations). Either is ``f'`` at a point within
-    ``GRADIENT_STEP R`` of the crossing (mean value theorem)."""
+    ``GRADIENT_STEP R`` of the crossing (mean value theorem). A known slope
+    above ``L`` is not trusted: across a bracket some 1e-10 R wide, rounding
+    in ``f`` (one computed in float32, say) shows as a steep slope."""
+    ok = np.isfinite(bound) & (bound > 0)
     d = np.array(known, dtype=float)
-    ask = np.flatnonzero(np.isnan(d))
+    with np.errstate(invalid="ignore"):
+        d[~(np.abs(d) <= bound)] = np.nan
+    ask = np.flatnonzero(np.isnan(d) & ok)
     if len(ask):
         h = GRADIENT_STEP * surface.radius
         p, v = points[ask], u[ask]
         f = surface(np.concatenate([p + h * v, p - h * v])).reshape(2, -1)
         d[ask] = (f[0] - f[1]) / (2.0 * h)
     cos = np.full(len(points), np.nan)
-    ok = np.isfinite(bound) & (bound > 0)
     cos[ok] = np.abs(d[ok]) / bound[ok]
     return np.where(cos >= TANGENCY_COS, cos, np.nan)
 
