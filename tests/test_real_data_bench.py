@@ -64,3 +64,21 @@ def test_alternating_runs_change_which_goes_first():
         2.0,
         [3.0, 1.0, 2.0],
     )
+
+
+class _Ramp:
+    """A stand-in volume surface: f = x - 3.5 on an 8^3 grid, so every sample
+    of the factor-2 grid at x = 3.5 lies exactly on the isovalue."""
+
+    shape, origin, spacing, isovalue, _sign = (8, 8, 8), np.zeros(3), np.ones(3), 0.0, 1.0
+
+    def values(self, p):
+        return p[:, 0] - 3.5
+
+
+def test_reference_skips_a_factor_with_samples_on_the_isovalue():
+    ref = real_data._reference(_Ramp(), 2)
+    assert ref["factor"] == 3 and ref["samples_at_isovalue"] == 0
+    assert ref["components"] == 1 and ref["euler"] == [2] and ref["closed"]
+    # Kept when none lies there.
+    assert real_data._reference(_Ramp(), 3)["factor"] == 3
