@@ -59,7 +59,7 @@ class CriticalPoints:
         return int(np.sum(~self.saddle) - np.sum(self.saddle))
 
 
-def _hessian_columns(surface: ImplicitSurface, x: np.ndarray, dirs: list, h: float) -> list:
+def hessian_columns(surface: ImplicitSurface, x: np.ndarray, dirs: list, h: float) -> list:
     """H e for each unit vector e in ``dirs``: central differences of the gradient."""
     k = len(x)
     pts = np.concatenate([x + s * h * e for e in dirs for s in (1.0, -1.0)])
@@ -114,7 +114,7 @@ def critical_points(
         xi = x[idx]
         f = surface(xi)
         g = surface.grad(xi)
-        he1, he2 = _hessian_columns(surface, xi, [e1, e2], h)
+        he1, he2 = hessian_columns(surface, xi, [e1, e2], h)
         G = np.column_stack([f, g @ e1, g @ e2])
         J = np.stack([g, he1, he2], axis=1)
         gn = row_norms(g)
@@ -142,7 +142,7 @@ def critical_points(
     merge = np.full(len(x), CRITICAL_MERGE * R + 1e-3 * spacing)
     x = x[np.sort(core.select_independent(x, merge))]
     g = surface.grad(x)
-    he1, he2 = _hessian_columns(surface, x, [e1, e2], h)
+    he1, he2 = hessian_columns(surface, x, [e1, e2], h)
     a, b, c = he1 @ e1, he1 @ e2, he2 @ e2
     det = a * c - b * b
     scale = np.maximum(np.abs(a) + np.abs(b) + np.abs(c), TINY) ** 2

@@ -17,6 +17,7 @@ from .._tol import (
     TINY,
 )
 from .._vectors import row_norms
+from ..sampling.critical import hessian_columns
 from ..sampling.probes import Probes
 from ..surfaces.oracle import ImplicitSurface
 
@@ -111,10 +112,8 @@ def _gradient_and_hessian(surface, x, h, scale):
     central differences of central differences)."""
     n, eye = len(x), np.eye(3)
     if surface.gradient is not None:
-        g = surface.grad(x) / scale
-        probe = np.concatenate([x + s * h * eye[k] for k in range(3) for s in (1.0, -1.0)])
-        cols = surface.grad(probe).reshape(3, 2, n, 3) / scale
-        return g, np.stack([(cols[k, 0] - cols[k, 1]) / (2 * h) for k in range(3)], axis=2)
+        cols = hessian_columns(surface, x, list(eye), h)
+        return surface.grad(x) / scale, np.stack(cols, axis=2) / scale
     axis = np.concatenate([eye, -eye]) * h  # (6, 3): +e0, +e1, +e2, -e0, -e1, -e2
     diag = (_SIGNS[:, None, :, None] * eye[_AXES][None]).sum(axis=2) * h  # (4, 3, 3)
     offsets = np.concatenate([np.zeros((1, 3)), axis, diag.reshape(-1, 3)])
