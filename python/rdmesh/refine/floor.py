@@ -38,9 +38,12 @@ class SpacingFloor:
         floor = np.full(len(centres), self.h_min)
         topo = np.broadcast_to(cand.topological, len(centres))
         if topo.any():
-            psi = self.criteria.sizing(centres[topo])
-            if psi is not None:
-                floor[topo] = np.maximum(self.h_min, TOPOLOGY_FLOOR * psi)
-            else:
-                floor[topo] = self.topology_floor
+            floor[topo] = self.topology(centres[topo])
         return cand.radii > floor
+
+    def topology(self, centres: np.ndarray) -> np.ndarray:
+        """(k,) the floor of topology-driven points at ``centres``."""
+        psi = self.criteria.sizing(centres)
+        if psi is None:
+            return np.full(len(centres), self.topology_floor)
+        return np.maximum(self.h_min, TOPOLOGY_FLOOR * psi)

@@ -159,6 +159,7 @@ class Mesher:
         """Refinement rounds until nothing is left to refine or a budget runs out."""
         floor = SpacingFloor(self.criteria, self.surface.radius, plan.topology_floor)
         phases = Phases(plan.phases, floor, _boundary_placer(self, plan))
+        self.pipeline.parity_floor = floor.topology if plan.parity else None
         cap = self.budget.max_vertices
         # A round's cost (insert, update, stages, select) grows with the points
         # it inserts: the next round is predicted from the loop's cost per point
@@ -390,6 +391,22 @@ def _stopped(stop: str, mesh: SurfaceMesh, interrupted: bool, stalled: bool) -> 
     return BudgetExceeded(f"refinement stopped early: {stop}", mesh=mesh, reason=stop)
 
 
+def _cut_facets(m: Mesher, tri: np.ndarray) -> np.ndarray:
+    """``(k, 3)`` sample ids of the facets left out by the parity rule that are
+    still in the triangulation and not restricted (a facet evaluated again
+    with no crossing is counted too: never fewer than there are)."""
+    if not m.pipeline.cut:
+        return np.zeros((0, 3), np.int64)
+    cut = np.unique(np.sort(np.concatenate(m.pipeline.cut), axis=1), axis=0)
+    cut = cut[m.rdt.is_facet(cut)]
+    return cut[~np.isin(_row_keys(cut), _row_keys(np.sort(tri, axis=1)))]
+
+
+def _row_keys(rows: np.ndarray) -> np.ndarray:
+    """One comparable key per row of a ``(k, 3)`` int array."""
+    return np.ascontiguousarray(rows, dtype=np.int64).view(np.dtype((np.void, 24))).ravel()
+
+
 def _result(
     m: Mesher, plan: Plan, t0: float, evals0: int, ivals0: int, stop: str | None
 ) -> SurfaceMesh:
@@ -426,6 +443,7 @@ def _result(
                 proof=m.certify,
                 boundary=plan.boundary if m.clipped else None,
                 quick=bool(stop and stop.startswith("time_limit")),
+                cut=m.vertices[_cut_facets(m, tri)].mean(axis=1),
             )
         mesh.report["features"] = _features_report(mesh, plan)
         if m.creases is not None:

@@ -87,6 +87,9 @@ class Plan:
     balls_given: bool = False
     #: The seeding grid's local slopes of f (:class:`GridScan`), if measured.
     slopes: SlopeField | None = None
+    #: Facets crossed an even number of times below the topology floor are
+    #: left out (:func:`rdmesh.refine.pipeline._cut_by_parity`).
+    parity: bool = False
 
 
 def boissonnat_oudot(
@@ -185,6 +188,8 @@ def boissonnat_oudot(
         features_abandoned=abandoned,
         balls_given=given is not None,
         slopes=scan.slopes,
+        # Certification proves crossings facet by facet: nothing is left out.
+        parity=not certify,
     )
 
 

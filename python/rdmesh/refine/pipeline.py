@@ -20,6 +20,7 @@ from __future__ import annotations
 import signal
 import sys
 import threading
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 
@@ -93,6 +94,11 @@ class FacetPipeline:
         self.slope: SlopeBound | None = None
         #: Fills the core's finer clearing level where the grid clears too little.
         self.fine: FineClearing | None = None
+        #: The topology floor at given centres, when facets below it follow the
+        #: parity of their crossings (:func:`_cut_by_parity`); else None.
+        self.parity_floor: Callable[[np.ndarray], np.ndarray] | None = None
+        #: Sample-id triples of the facets so left out (may repeat, may be stale).
+        self.cut: list[np.ndarray] = []
         self._worker = ThreadPoolExecutor(1, thread_name_prefix="rdmesh-core")
         #: Evaluates the slices of a chunk at once (workers > 1).
         self._pool = (
@@ -241,6 +247,8 @@ def _slice_flags(p: FacetPipeline, vertices, tri, seg, rho, end_f, samples, boun
         None if w is None else w[tri[:, 0]], bound,
     )  # fmt: skip
     r = ev.restricted
+    if p.parity_floor is not None:
+        r = r & ~_cut_by_parity(p, ev, tri)
     bad = np.zeros(len(tri), bool)
     corners = vertices[tri[r]]
     exempt = None
@@ -264,6 +272,27 @@ def _slice_flags(p: FacetPipeline, vertices, tri, seg, rho, end_f, samples, boun
         | (ev.clean * core.KNOWN)
     )
     return flags, ev.centre, ev.failed, ev.steep
+
+
+def _cut_by_parity(p: FacetPipeline, ev, tri: np.ndarray) -> np.ndarray:
+    """(k,) bool: facets whose dual edge crosses the surface an even number of
+    times, transversally, with a surface ball below the topology floor.
+
+    Such a facet would be refined, and its point refused at the floor. Left
+    out, the complex there follows the sign of f at the Voronoi vertices: it
+    is the boundary of the cells whose Voronoi vertex is inside, as Mesh_3's
+    surface is, so every edge keeps an even number of triangles. The wedge or
+    neck the two crossings bound, thinner than the floor, is cut (the report
+    counts these facets as Voronoi-edge violations).
+    """
+    cut = ev.restricted & (ev.n_cross >= 2) & (ev.n_cross % 2 == 0) & ~ev.tangential
+    idx = np.flatnonzero(cut)
+    if len(idx):
+        low = ev.radius[idx] <= p.parity_floor(ev.centre[idx])
+        cut[idx[~low]] = False
+        if low.any():
+            p.cut.append(tri[idx[low]])
+    return cut
 
 
 @contextmanager

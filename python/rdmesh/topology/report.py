@@ -68,7 +68,9 @@ _BASIS = {
         "sampled",
         "each restricted facet's dual Voronoi edge meets the surface once, transversally; "
         "crossings are found by sampling the edge at the surface-ball spacing plus a "
-        "search of |f| dips, not by interval arithmetic",
+        "search of |f| dips, not by interval arithmetic; a facet left out below the spacing "
+        "floor because its edge crossed the surface an even number of times (cut_by_parity) "
+        "counts as a violation",
     ),
     "voronoi_facet": (
         "exact given voronoi_edge",
@@ -120,6 +122,7 @@ def topology_report(
     discovery: Discovery | None = None,
     proof: bool = False,
     boundary: BoundaryCurve | None = None,
+    cut: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """The topology report of a finished run (see :attr:`SurfaceMesh.report`).
 
@@ -135,7 +138,9 @@ def topology_report(
     ``proven`` where they held. ``boundary`` (a run with
     ``topology="manifold-with-boundary"``) adds the ``boundary`` entry: the
     mesh's boundary loops against the loops traced on the sphere; such a
-    mesh is never certified.
+    mesh is never certified. ``cut`` (``(k, 3)`` centroids) are facets left
+    out because their dual edge crossed the surface an even number of times
+    below the spacing floor: Voronoi-edge violations.
     """
     tests: dict[str, dict[str, Any]] = {}
     where = []
@@ -157,6 +162,13 @@ def topology_report(
             "tests": what,
         }
         where.append(v.centres)
+    if cut is not None:
+        edge = tests["voronoi_edge"]
+        edge["cut_by_parity"] = len(cut)
+        edge["violations"] += len(cut)
+        edge["held"] = edge["violations"] == 0
+        edge["level"] = _level(edge["held"], edge["basis"])
+        where.append(cut)
     for kind in ("voronoi_loop", "silhouette"):
         if kind not in tests:
             tests[kind] = {
