@@ -184,7 +184,8 @@ class Mesher:
                 self.unresolved.append(found.centres)
                 break
             with self.timer("select"):
-                batch = found.centres[core.select_independent(found.centres, found.radii)]
+                pick = core.select_independent(found.centres, found.radii)
+                batch, stages = found.centres[pick], found.stages(pick)
             now = time.perf_counter()
             per_point = (now - loop_start) / max(done, len(self.vertices), 1)
             predicted = max(now - cycle_start, per_point * len(batch)) if done else 0.0
@@ -193,9 +194,10 @@ class Mesher:
                 break
             cycle_start, done = now, done + len(batch)
             if cap is not None and len(self.vertices) + len(batch) > cap:
-                batch = batch[: max(0, cap - len(self.vertices))]
+                room = max(0, cap - len(self.vertices))
+                batch, stages = batch[:room], stages[:room]
                 stop = f"max_vertices={cap} reached"
-            if self._insert(batch, found.stage) == 0 and len(batch):
+            if _insert_stages(self, batch, stages) == 0 and len(batch):
                 # Repeating the batch would add nothing again (CGAL's "element
                 # survives its own refinement point" error).
                 self.stalled, stop = True, _no_progress(found.stage, len(batch))
@@ -231,6 +233,14 @@ class Mesher:
                 self.defects,
             )  # fmt: skip
         return self._snap
+
+
+def _insert_stages(m: Mesher, points: np.ndarray, stages: np.ndarray) -> int:
+    """Insert points joined from several stages, each counted for its own."""
+    names = list(dict.fromkeys(stages))
+    if len(names) == 1:
+        return m._insert(points, names[0])
+    return sum(m._insert(points[stages == name], name) for name in names)
 
 
 def _fresh(m: Mesher) -> None:

@@ -52,17 +52,51 @@ class Candidates:
     #: placed (facets bad only by the angle bound at the boundary).
     soft: np.ndarray | None = None
 
+    #: ``(k,)`` the stage of each point when several stages' points were
+    #: joined (:meth:`join`), else None (all are ``stage``'s).
+    origin: np.ndarray | None = None
+
     def __len__(self) -> int:
         return len(self.centres)
+
+    def stages(self, pick: np.ndarray) -> np.ndarray:
+        """``(len(pick),)`` the stage name of each picked point."""
+        if self.origin is None:
+            return np.full(len(pick), self.stage, dtype=object)
+        return self.origin[pick]
+
+    @staticmethod
+    def join(parts: list[Candidates]) -> Candidates:
+        """One set of points from several stages' (named by the first stage;
+        :meth:`stages` tells each point's own)."""
+        if len(parts) == 1:
+            return parts[0]
+        n = [len(c) for c in parts]
+        soft = None
+        if any(c.soft is not None for c in parts):
+            soft = np.concatenate(
+                [c.soft if c.soft is not None else np.zeros(len(c), bool) for c in parts]
+            )
+        return Candidates(
+            parts[0].stage,
+            np.concatenate([c.centres for c in parts]),
+            np.concatenate([c.radii for c in parts]),
+            np.concatenate([np.broadcast_to(c.topological, len(c)) for c in parts]),
+            sum(c.violations for c in parts),
+            soft=soft,
+            origin=np.concatenate([c.stages(np.arange(k)) for c, k in zip(parts, n, strict=True)]),
+        )
 
     def take(self, keep: np.ndarray) -> Candidates:
         """The candidates where ``keep`` is True (``stage``, ``violations`` and
         ``stuck`` are not per point: they stay)."""
         topo = np.broadcast_to(self.topological, len(self.centres))[keep]
         soft = None if self.soft is None else self.soft[keep]
+        origin = None if self.origin is None else self.origin[keep]
         return replace(
-            self, centres=self.centres[keep], radii=self.radii[keep], topological=topo, soft=soft
-        )
+            self, centres=self.centres[keep], radii=self.radii[keep], topological=topo, soft=soft,
+            origin=origin,
+        )  # fmt: skip
 
 
 class Stage(Protocol):
