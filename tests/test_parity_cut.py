@@ -70,3 +70,10 @@ def test_a_smooth_surface_has_nothing_cut():
     edge = m.report["tests"]["voronoi_edge"]
     assert edge["cut_by_parity"] == 0 and edge["held"] is True
     assert m.report["closed_manifold"]
+
+
+def test_the_statement_and_the_log_say_what_was_cut(lens_mesh, caplog):
+    assert "were left out" in lens_mesh.report["statement"]
+    with caplog.at_level("WARNING", logger="rdmesh"):
+        _mesh()
+    assert any("left out" in r.getMessage() for r in caplog.records)

@@ -412,6 +412,18 @@ def _cut_facets(m: Mesher, tri: np.ndarray) -> np.ndarray:
     return cut[~np.isin(_row_keys(cut), _row_keys(np.sort(tri, axis=1)))]
 
 
+def _cut_centroids(m: Mesher, tri: np.ndarray) -> np.ndarray:
+    """Centroids of the facets :func:`_cut_facets` lists; logged when any."""
+    cut = m.vertices[_cut_facets(m, tri)].mean(axis=1)
+    if len(cut):
+        log.warning(
+            "%d facets below the spacing floor, whose Voronoi edge crosses the surface an even "
+            "number of times, were left out (a wedge or neck thinner than the floor is cut): %s",
+            len(cut), describe_regions(regions(cut, REGION_LINK * m.surface.radius)),
+        )  # fmt: skip
+    return cut
+
+
 def _row_keys(rows: np.ndarray) -> np.ndarray:
     """One comparable key per row of a ``(k, 3)`` int array."""
     return np.ascontiguousarray(rows, dtype=np.int64).view(np.dtype((np.void, 24))).ravel()
@@ -453,7 +465,7 @@ def _result(
                 proof=m.certify,
                 boundary=plan.boundary if m.clipped else None,
                 quick=bool(stop and stop.startswith("time_limit")),
-                cut=m.vertices[_cut_facets(m, tri)].mean(axis=1),
+                cut=_cut_centroids(m, tri),
             )
         mesh.report["features"] = _features_report(mesh, plan)
         if m.creases is not None:

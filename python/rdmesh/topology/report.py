@@ -428,6 +428,13 @@ def _statement(rep: dict[str, Any]) -> str:
             why.append("tests failed: " + ", ".join(failed))
         if untested:
             why.append("not tested: " + ", ".join(untested))
+        cut = tests["voronoi_edge"].get("cut_by_parity", 0)
+        if cut:
+            why.append(
+                f"{cut} facets below the spacing floor whose Voronoi edge crossed the "
+                "surface an even number of times were left out (a wedge or neck thinner "
+                "than the floor is cut there)"
+            )
         if rep["unresolved"]:
             why.append(
                 f"{rep['unresolved']} refinement points were below the spacing floor "
