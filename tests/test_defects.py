@@ -7,16 +7,9 @@ import pytest
 import rdmesh
 import rdmesh.refine.phases as phases
 import rdmesh.topology.defects as defects
+import volumes
 from rdmesh._errors import InternalCheckError
 from rdmesh.topology.complex import complex_status, largest_per_group
-
-
-def _lens() -> np.ndarray:
-    """A linear volume whose kinked rim needs topology rounds late in the run
-    (few touched samples each), so the local recount is exercised."""
-    i = np.arange(25, dtype=float)
-    x, y, z = np.meshgrid(i, i, i, indexing="ij")
-    return 1.0 - np.abs(x - 12.0) - 0.01 * ((y - 12.0) ** 2 + (z - 12.0) ** 2)
 
 
 @pytest.fixture
@@ -33,7 +26,7 @@ def instances(monkeypatch):
 
 
 def _mesh_lens():
-    s = rdmesh.VolumeSurface(_lens(), isovalue=0.0, interpolation="linear")
+    s = rdmesh.VolumeSurface(volumes.kinked_lens(), isovalue=0.0, interpolation="linear")
     return rdmesh.mesh_surface(s, radius_bound=1.0)
 
 

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 import rdmesh
+import volumes
 from rdmesh.refine import mesher, phases
 from rdmesh.refine.phases import JOIN_BELOW, Phases
 from rdmesh.refine.stages import Candidates
@@ -63,14 +64,6 @@ def test_without_joining_only_the_first_stage_is_asked(monkeypatch):
     assert len(found) == 3 and found.origin is None
 
 
-def _kinked_lens() -> np.ndarray:
-    """A linear volume whose kinked rim needs edge and vertex repairs late in
-    the run, while the facet stage still offers a few points."""
-    i = np.arange(25, dtype=float)
-    x, y, z = np.meshgrid(i, i, i, indexing="ij")
-    return 1.0 - np.abs(x - 12.0) - 0.01 * ((y - 12.0) ** 2 + (z - 12.0) ** 2)
-
-
 def test_a_joined_run_counts_each_stage_and_stays_closed(monkeypatch):
     joined = []
     insert = mesher._insert_stages
@@ -80,7 +73,7 @@ def test_a_joined_run_counts_each_stage_and_stays_closed(monkeypatch):
         return insert(m, points, stages)
 
     monkeypatch.setattr(mesher, "_insert_stages", spy)
-    surface = rdmesh.VolumeSurface(_kinked_lens(), isovalue=0.0, interpolation="linear")
+    surface = rdmesh.VolumeSurface(volumes.kinked_lens(), isovalue=0.0, interpolation="linear")
     m = rdmesh.mesh_surface(surface, radius_bound=1.0)
     assert any(joined)
     inserted = m.stats["inserted"]

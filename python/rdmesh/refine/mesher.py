@@ -22,6 +22,7 @@ from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
+from .._vectors import row_index
 from ..creases.search import CreaseSearch
 from ..features.check import check_features, repair_sites
 from ..io.result import SurfaceMesh
@@ -407,9 +408,9 @@ def _cut_facets(m: Mesher, tri: np.ndarray) -> np.ndarray:
     with no crossing is counted too: never fewer than there are)."""
     if not m.pipeline.cut:
         return np.zeros((0, 3), np.int64)
-    cut = np.unique(np.sort(np.concatenate(m.pipeline.cut), axis=1), axis=0)
+    cut = np.unique(np.concatenate(m.pipeline.cut), axis=0)  # sorted ids, as changed_facets
     cut = cut[m.rdt.is_facet(cut)]
-    return cut[~np.isin(_row_keys(cut), _row_keys(np.sort(tri, axis=1)))]
+    return cut[row_index(cut, np.sort(tri, axis=1)) < 0]
 
 
 def _cut_centroids(m: Mesher, tri: np.ndarray) -> np.ndarray:
@@ -422,11 +423,6 @@ def _cut_centroids(m: Mesher, tri: np.ndarray) -> np.ndarray:
             len(cut), describe_regions(regions(cut, REGION_LINK * m.surface.radius)),
         )  # fmt: skip
     return cut
-
-
-def _row_keys(rows: np.ndarray) -> np.ndarray:
-    """One comparable key per row of a ``(k, 3)`` int array."""
-    return np.ascontiguousarray(rows, dtype=np.int64).view(np.dtype((np.void, 24))).ravel()
 
 
 def _result(

@@ -71,7 +71,6 @@ class Candidates:
         :meth:`stages` tells each point's own)."""
         if len(parts) == 1:
             return parts[0]
-        n = [len(c) for c in parts]
         soft = None
         if any(c.soft is not None for c in parts):
             soft = np.concatenate(
@@ -84,7 +83,7 @@ class Candidates:
             np.concatenate([np.broadcast_to(c.topological, len(c)) for c in parts]),
             sum(c.violations for c in parts),
             soft=soft,
-            origin=np.concatenate([c.stages(np.arange(k)) for c, k in zip(parts, n, strict=True)]),
+            origin=np.concatenate([c.stages(np.arange(len(c))) for c in parts]),
         )
 
     def take(self, keep: np.ndarray) -> Candidates:
