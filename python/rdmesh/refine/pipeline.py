@@ -281,7 +281,8 @@ def _cut_by_parity(p: FacetPipeline, ev, tri: np.ndarray) -> np.ndarray:
     Such a facet would be refined, and its point refused at the floor. Left
     out, the complex there follows the sign of f at the Voronoi vertices: it
     is the boundary of the cells whose Voronoi vertex is inside, as Mesh_3's
-    surface is, so every edge keeps an even number of triangles. The wedge or
+    surface is, so its edges have an even number of triangles where every
+    facet around them follows that parity. The wedge or
     neck the two crossings bound, thinner than the floor, is cut (the report
     counts these facets as Voronoi-edge violations).
     """
