@@ -301,6 +301,49 @@ PYBIND11_MODULE(_rdt, m) {
           "the polygon edge from vertex j to j+1 (cyclic), -1 for a dummy). "
           "Raises ValueError for ids out of range or pairs that are not edges.")
       .def(
+          "star_cells",
+          [](RestrictedDelaunay& self, const IdArray& ids) {
+            if (ids.ndim() != 1) throw std::invalid_argument("ids must have shape (k,)");
+            const std::vector<std::int64_t> v = copy_of<std::int64_t>(ids);
+            rdmesh::StarCells r = locked(self, [&] { return self.star_cells(v.data(), v.size()); });
+            const auto c = static_cast<py::ssize_t>(r.cells.size() / 4);
+            return py::make_tuple(to_numpy(r.cells, {c, 4}), to_numpy(r.centres, {c, 3}));
+          },
+          py::arg("ids"),
+          "The distinct finite cells incident to samples ids: ((c, 4) sorted vertex ids, "
+          "-1 for a dummy; (c, 3) circumcentres). Raises ValueError for ids out of range.")
+      .def(
+          "relabel_stars",
+          [](RestrictedDelaunay& self, const IdArray& faces, const IdArray& ids,
+             const IdArray& cells, const InArray& cost) {
+            if (faces.ndim() != 2 || faces.shape(1) != 3)
+              throw std::invalid_argument("faces must have shape (F, 3)");
+            if (ids.ndim() != 1) throw std::invalid_argument("ids must have shape (k,)");
+            if (cells.ndim() != 2 || cells.shape(1) != 4)
+              throw std::invalid_argument("cells must have shape (c, 4)");
+            if (cost.ndim() != 1 || cost.shape(0) != cells.shape(0))
+              throw std::invalid_argument("cost must have shape (c,), one per cell");
+            const std::vector<std::int64_t> f = copy_of<std::int64_t>(faces);
+            const std::vector<std::int64_t> v = copy_of<std::int64_t>(ids);
+            const std::vector<std::int64_t> q = copy_of<std::int64_t>(cells);
+            const std::vector<double> w = copy_of<double>(cost);
+            rdmesh::StarRelabel r = locked(self, [&] {
+              return self.relabel_stars(f.data(), f.size() / 3, v.data(), v.size(), q.data(),
+                                        w.data(), w.size());
+            });
+            return py::make_tuple(
+                to_numpy(r.faces, {static_cast<py::ssize_t>(r.faces.size() / 3), 3}),
+                to_numpy(r.flipped, {static_cast<py::ssize_t>(r.flipped.size() / 4), 4}));
+          },
+          py::arg("faces"), py::arg("ids"), py::arg("cells"), py::arg("cost"),
+          "Faces (F, 3) (outward) read as the boundary of a labelling of the Delaunay "
+          "cells, made one disk around each of the vertices ids by moving groups of their "
+          "incident cells to the other side: the group whose largest cost is least (cost "
+          "(c,) of cells (c, 4); a cell without a cost, with a dummy vertex, or with a "
+          "NaN or negative cost is never moved). Returns (faces (k, 3) outward, in their "
+          "order then the added ones; (m, 4) sorted ids of each cell moved). Raises "
+          "ValueError for ids out of range, a face repeating a vertex or given twice.")
+      .def(
           "voronoi_boxes",
           [](RestrictedDelaunay& self) {
             std::vector<std::int64_t> edges;

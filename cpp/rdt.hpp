@@ -163,6 +163,19 @@ struct VoronoiFacets {
   std::vector<std::int64_t> third;
 };
 
+// A triangle set made one disk per vertex by relabelling Delaunay cells
+// (star_relabel.cpp).
+struct StarRelabel {
+  std::vector<std::int64_t> faces;    // k*3, oriented outward
+  std::vector<std::int64_t> flipped;  // c*4 sorted ids of each cell flipped
+};
+
+// The distinct cells around some samples (star_relabel.cpp).
+struct StarCells {
+  std::vector<std::int64_t> cells;  // c*4 sorted vertex ids, -1 for a dummy
+  std::vector<double> centres;      // c*3 circumcentres
+};
+
 // Restricted facets, oriented outward, with their surface centres.
 struct FacetList {
   std::vector<std::int64_t> tri;    // k*3
@@ -248,6 +261,30 @@ class RestrictedDelaunay {
   // range or a pair that is not a Delaunay edge.  Not const: it numbers the
   // cells through their end_idx/end_stamp fields and caches circumcentres.
   VoronoiFacets voronoi_facets(const std::int64_t* edges, std::size_t m);
+
+  // The distinct finite cells incident to the k given samples, with their
+  // circumcentres.  Throws std::invalid_argument for ids out of range.  Not
+  // const: it caches circumcentres.
+  StarCells star_cells(const std::int64_t* ids, std::size_t k);
+
+  // Read faces (F, 3 sample ids, oriented outward) as the boundary of a
+  // labelling of the Delaunay cells (inside: the faces' normals point away
+  // from it), and at each given vertex (ascending) move one group of its
+  // incident cells, joined through facets not in the set, to the other side
+  // until two groups are left (one inside, one outside), so the faces around
+  // it form one disk.  The group moved is the one whose largest cell cost
+  // is least (then the smallest, then the first by cell ids); cost gives
+  // each of c cells (4 ids each, any order) its cost, and a cell without
+  // one (or with a dummy vertex, or a cost that is NaN or negative) is
+  // never moved, so the vertex may keep more than two groups.  Each move
+  // toggles the cells' four facets.  Faces come back in their order, the
+  // removed ones dropped, then the added ones.  Throws
+  // std::invalid_argument for ids out of range, a face repeating a vertex or
+  // a face given twice.
+  StarRelabel relabel_stars(const std::int64_t* faces, std::size_t F,
+                            const std::int64_t* ids, std::size_t k,
+                            const std::int64_t* cells, const double* cost,
+                            std::size_t c) const;
 
   // Every Delaunay edge between samples (sorted id pairs, as delaunay_edges
   // gives them) and the bounding box of its Voronoi facet, 6 doubles per edge

@@ -233,6 +233,18 @@ class RestrictedDelaunay:
         npt.NDArray[np.int64],  # (T,) distinct-cell index of each vertex
         npt.NDArray[np.int64],  # (T,) third vertex of each dual facet, -1: dummy
     ]: ...
+    def star_cells(
+        self, ids: npt.ArrayLike
+    ) -> tuple[
+        npt.NDArray[np.int64],  # (c, 4) sorted vertex ids, -1: dummy
+        npt.NDArray[np.float64],  # (c, 3) circumcentres
+    ]: ...
+    def relabel_stars(
+        self, faces: npt.ArrayLike, ids: npt.ArrayLike, cells: npt.ArrayLike, cost: npt.ArrayLike
+    ) -> tuple[
+        npt.NDArray[np.int64],  # (k, 3) outward faces
+        npt.NDArray[np.int64],  # (m, 4) sorted ids of the cells moved
+    ]: ...
     def voronoi_boxes(
         self,
     ) -> tuple[

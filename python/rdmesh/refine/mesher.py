@@ -36,6 +36,7 @@ from ..topology import Snapshot, topology_report
 from ..topology.defects import ComplexDefects
 from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
+from ..topology.relabel import Relabelled, relabel_pinches
 from .check import CHECK_MAX_SAMPLES, check_restricted
 from .criteria import FacetCriteria
 from .deviation import DeviationStage
@@ -425,16 +426,39 @@ def _cut_centroids(m: Mesher, tri: np.ndarray) -> np.ndarray:
     return cut
 
 
+def _relabel(m: Mesher, plan: Plan, snap: Snapshot) -> Relabelled | None:
+    """The final complex relabelled at its pinched vertices, when the parity
+    rule made it the boundary of a cell labelling (closed surfaces only)."""
+    if not plan.parity or m.clipped:
+        return None
+    tri, centres, _ = snap.facets(0)
+    r = relabel_pinches(m.rdt, m.surface, m.vertices, tri, centres, snap.status)
+    if r is not None:
+        log.warning(
+            "%d pinched vertices below the spacing floor (an edge in 4 triangles or 2 fans) "
+            "were relabelled: %d Delaunay cells moved across the surface, %d faces differ "
+            "from the restricted Delaunay triangulation (%s)%s",
+            r.pinched, r.cells, len(r.changed),
+            describe_regions(regions(r.changed, REGION_LINK * m.surface.radius)),
+            f"; {len(r.left)} vertices are still pinched" if len(r.left) else "",
+        )  # fmt: skip
+    return r
+
+
 def _result(
     m: Mesher, plan: Plan, t0: float, evals0: int, ivals0: int, stop: str | None
 ) -> SurfaceMesh:
     """The mesh of the final samples, with its topology report and statistics."""
     snap = m.snapshot()
     tri, centres, _ = snap.facets(0)
+    relabelled = _relabel(m, plan, snap)
+    faces = tri
+    if relabelled is not None:
+        faces, centres = relabelled.faces, relabelled.centres
     unresolved = np.concatenate(m.unresolved) if m.unresolved else np.zeros((0, 3))
-    mesh = SurfaceMesh.from_facets(m.vertices, tri, centres, unresolved)
+    mesh = SurfaceMesh.from_facets(m.vertices, faces, centres, unresolved)
     if plan.balls is not None:
-        ids = np.unique(tri)
+        ids = np.unique(faces)
         mesh.weights = m.samples.weights[ids]
         mesh.features = check_features(
             plan.balls, plan.features, m.ball_ids, ids, mesh.faces, len(mesh.vertices)
@@ -462,6 +486,7 @@ def _result(
                 boundary=plan.boundary if m.clipped else None,
                 quick=bool(stop and stop.startswith("time_limit")),
                 cut=_cut_centroids(m, tri),
+                relabelled=relabelled,
             )
         mesh.report["features"] = _features_report(mesh, plan)
         if m.creases is not None:

@@ -58,7 +58,8 @@ from ..sampling.boundary import BoundaryCurve
 from ..sampling.critical import CriticalPoints
 from ..sampling.discovery import Discovery
 from ..sampling.probes import Probes
-from .complex import component_topology
+from .complex import component_topology, is_closed_manifold
+from .relabel import Relabelled
 from .singular import singular_points
 from .snapshot import Snapshot
 from .tests import TESTS, Violations
@@ -123,6 +124,7 @@ def topology_report(
     proof: bool = False,
     boundary: BoundaryCurve | None = None,
     cut: np.ndarray | None = None,
+    relabelled: Relabelled | None = None,
 ) -> dict[str, Any]:
     """The topology report of a finished run (see :attr:`SurfaceMesh.report`).
 
@@ -140,7 +142,9 @@ def topology_report(
     mesh's boundary loops against the loops traced on the sphere; such a
     mesh is never certified. ``cut`` (``(k, 3)`` centroids) are facets left
     out because their dual edge crossed the surface an even number of times
-    below the spacing floor: Voronoi-edge violations.
+    below the spacing floor: Voronoi-edge violations. ``relabelled`` says
+    which faces differ from the restricted facets (pinched vertices made one
+    disk); the mesh's closedness is then read from ``faces``.
     """
     tests: dict[str, dict[str, Any]] = {}
     where = []
@@ -189,6 +193,8 @@ def topology_report(
     # The output faces are the restricted facets: every edge in two faces is
     # the Voronoi-facet test, one fan per vertex is the disk test.
     closed = bool(len(faces) and tests["voronoi_facet"]["held"] and tests["disk"]["held"])
+    if relabelled is not None:
+        closed = is_closed_manifold(faces, n_mesh_vertices)
     unresolved_regions = regions(unresolved, link)
     violation_regions = regions(np.concatenate(where) if where else np.zeros((0, 3)), link)
     search = probes is not None and not quick
@@ -227,6 +233,7 @@ def topology_report(
         else {"count": len(probes.points), "spacing": float(probes.spacing)},
         "spacing_floor": floor,
         "critical_points": None,
+        "relabelled": None if relabelled is None else _relabelled(relabelled, link),
     }
     if critical is not None:
         morse = critical.euler
@@ -243,6 +250,17 @@ def topology_report(
     report["boundary"] = _boundary(boundary, chi, loops) if clipped else None
     report["statement"] = _statement(report)
     return report
+
+
+def _relabelled(r: Relabelled, link: float) -> dict[str, Any]:
+    """``report["relabelled"]``: where the output faces are not restricted facets."""
+    return {
+        "pinched_vertices": r.pinched,
+        "cells_flipped": r.cells,
+        "faces_changed": len(r.changed),
+        "still_pinched": len(r.left),
+        "regions": regions(r.changed, link),
+    }
 
 
 def _boundary(curve: BoundaryCurve, chi: list[int], loops: list[int]) -> dict[str, Any]:
@@ -434,6 +452,15 @@ def _statement(rep: dict[str, Any]) -> str:
                 f"{cut} facets below the spacing floor whose Voronoi edge crossed the "
                 "surface an even number of times were left out (a wedge or neck thinner "
                 "than the floor is cut there)"
+            )
+        rel = rep.get("relabelled")
+        if rel:
+            why.append(
+                f"{rel['pinched_vertices']} pinched vertices below the spacing floor were "
+                f"made one disk by moving {rel['cells_flipped']} Delaunay cells across the "
+                f"surface, so {rel['faces_changed']} faces are not restricted Delaunay facets "
+                f"({describe_regions(rel['regions'])})"
+                + (f"; {rel['still_pinched']} are still pinched" if rel["still_pinched"] else "")
             )
         if rep["unresolved"]:
             why.append(
