@@ -9,7 +9,7 @@ import rdmesh.refine.phases as phases
 import rdmesh.topology.defects as defects
 import volumes
 from rdmesh._errors import InternalCheckError
-from rdmesh.topology.complex import complex_status, largest_per_group
+from rdmesh.topology.complex import complex_status, is_closed_manifold, largest_per_group
 
 
 @pytest.fixture
@@ -50,6 +50,33 @@ def test_a_wrong_local_recount_is_caught(instances, monkeypatch):
     monkeypatch.setattr(phases, "JOIN_BELOW", 0)
     with pytest.raises(InternalCheckError, match="counted around the touched samples"):
         _mesh_lens()
+
+
+def test_a_run_ends_on_a_count_of_every_facet(instances, monkeypatch):
+    """Without the check, a local count that finds nothing is not confirmed
+    each round, but the run ends only after a count of every facet."""
+    monkeypatch.setenv("RDMESH_CHECK", "0")
+    m = _mesh_lens()
+    d = instances[-1]
+    assert not d.check and d.local_counts > 0
+    assert d.confirmed
+    assert m.report["closed_manifold"] and len(d.edges.ids) == len(d.vertices.ids) == 0
+
+
+def test_defects_that_local_counts_miss_are_refined_before_the_run_ends(
+    instances, monkeypatch, caplog
+):
+    """Local recounts that lose their rows make the run end on a complex they
+    call clean; the final count of every facet finds the defects, and the run
+    goes on to refine them."""
+    monkeypatch.setenv("RDMESH_CHECK", "0")
+    monkeypatch.setattr(defects, "_merged", lambda kept, new: kept)
+    monkeypatch.setattr(phases, "JOIN_BELOW", 0)
+    with caplog.at_level("WARNING", logger="rdmesh"):
+        m = _mesh_lens()
+    assert any("local counts missed" in r.getMessage() for r in caplog.records)
+    assert instances[-1].confirmed
+    assert m.report["closed_manifold"] and is_closed_manifold(m.faces, len(m.vertices))
 
 
 def test_tables_list_each_failing_edge_and_vertex_with_its_largest_facet():

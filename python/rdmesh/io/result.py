@@ -34,8 +34,6 @@ class SurfaceMesh:
         Centre of each face's surface Delaunay ball: where its dual Voronoi
         edge meets the surface. The ball radius is the distance to any vertex
         (the power distance ``sqrt(d^2 - w)`` to a protecting ball's centre).
-        A face added where pinched vertices were relabelled (report
-        ``relabelled``) is not a restricted facet: its circumcentre.
     stats : dict
         Run statistics: ``seconds``, ``rounds``, ``vertices``, ``faces``,
         ``evaluations`` (points at which ``f`` was evaluated), ``segment_queries``
@@ -61,10 +59,9 @@ class SurfaceMesh:
         ``level``, ``violations``, ``repaired``, ``basis``), ``seeding``,
         ``components``, ``euler``, ``boundary_loops``, ``closed_manifold``,
         ``boundary``, ``unresolved_regions``, ``violation_regions``,
-        ``critical_points``, ``relabelled`` (pinched vertices below the
-        spacing floor made one disk, None when there were none),
-        ``statement`` and ``features`` (the feature check, None without
-        protected curves); :mod:`rdmesh.topology.report` says what each holds.
+        ``critical_points``, ``relabelled``, ``statement`` and ``features``
+        (the feature check, None without protected curves);
+        :mod:`rdmesh.topology.report` says what each holds.
     features : MeshFeatures or None
         The protected feature curves as mesh vertex indices, the corners and
         the feature check (:class:`rdmesh.MeshFeatures`); None without.

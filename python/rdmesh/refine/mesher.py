@@ -37,6 +37,7 @@ from ..topology.defects import ComplexDefects
 from ..topology.loops import LoopMemo
 from ..topology.proven_cells import ProofMemo
 from ..topology.relabel import Relabelled, relabel_pinches
+from ..topology.snapshot import confirm_defects
 from .check import CHECK_MAX_SAMPLES, check_restricted
 from .criteria import FacetCriteria
 from .deviation import DeviationStage
@@ -178,6 +179,9 @@ class Mesher:
                 check_restricted(self.snapshot())
             with self.timer("candidates"):
                 found, self.unresolved = phases.ask(self.snapshot())
+                if found is None and confirm_defects(self.snapshot()):
+                    log.warning("a count of every facet found defects the local counts missed")
+                    continue
             if found is None:
                 break
             if self.rounds > MAX_ROUNDS:
@@ -450,6 +454,7 @@ def _result(
 ) -> SurfaceMesh:
     """The mesh of the final samples, with its topology report and statistics."""
     snap = m.snapshot()
+    confirm_defects(snap)  # the report's edge and disk tests count every facet
     tri, centres, _ = snap.facets(0)
     relabelled = _relabel(m, plan, snap)
     faces = tri

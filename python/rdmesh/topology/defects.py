@@ -8,8 +8,11 @@ so :class:`ComplexDefects` keeps the failing edges and vertices, each with
 its largest incident facet, and each round recounts only around the samples
 whose restricted facets may have changed (the core's touched vertices: those
 of every cell made since). An edge or vertex away from them has the same
-facets as before, so its entry stands. When the recount finds nothing, or
-the touched samples are many, every facet is counted again.
+facets as before, so its entry stands. When the touched samples are many,
+every facet is counted again, and :meth:`ComplexDefects.confirm` counts every
+facet before a run ends on a clean complex (until then a local count that
+finds nothing is not confirmed: a run with few points per round would pay a
+whole count each round).
 """
 
 from __future__ import annotations
@@ -74,6 +77,9 @@ class ComplexDefects:
         #: Updates that counted every facet, and those that counted locally.
         self.full_counts = 0
         self.local_counts = 0
+        #: Whether the tables come from a count of every facet of the current
+        #: complex (no local count since).
+        self.confirmed = False
 
     def update(self, snap) -> None:
         """Bring the tables to the snapshot's complex (once per snapshot)."""
@@ -83,7 +89,10 @@ class ComplexDefects:
         if self.edges is None or len(touched) > FULL_SHARE * n:
             self._full(snap)
             return
+        if not len(touched):
+            return  # nothing changed
         self.local_counts += 1
+        self.confirmed = False
         tri, centres, _ = rdt.facets_around(touched)
         near = np.zeros(n, bool)
         near[touched] = True
@@ -93,15 +102,24 @@ class ComplexDefects:
         keep_e = ~(near[old_e.ids[:, 0]] | near[old_e.ids[:, 1]])
         self.edges = _merged(old_e.take(keep_e), edges)
         self.vertices = _merged(old_v.take(~near[old_v.ids[:, 0]]), vertices)
-        if not len(self.edges.ids) and not len(self.vertices.ids):
-            self._full(snap)  # confirm a clean complex on every facet
-        elif self.check:
+        if self.check:
             local = (self.edges, self.vertices)
             self._full(snap)
             _compare(local, (self.edges, self.vertices))
 
+    def confirm(self, snap) -> bool:
+        """Count every facet of ``snap`` (brought up to date by :meth:`update`)
+        unless the tables already come from such a count; True when the
+        count changed them (local counts missed something)."""
+        if self.confirmed or self.edges is None:
+            return False
+        local = (self.edges, self.vertices)
+        self._full(snap)
+        return not all(map(_same, local, (self.edges, self.vertices)))
+
     def _full(self, snap) -> None:
         self.full_counts += 1
+        self.confirmed = True
         tri, centres, _ = snap.facets(0)
         self.edges, self.vertices = _tables(
             tri, centres, snap.radii(0), len(snap.vertices), None, snap.status
@@ -160,10 +178,13 @@ def _merged(kept: DefectTable, new: DefectTable) -> DefectTable:
     return cat.take(order)
 
 
+def _same(a: DefectTable, b: DefectTable) -> bool:
+    return all(np.array_equal(x, y) for x, y in zip(a._columns(), b._columns(), strict=True))
+
+
 def _compare(local, full) -> None:
     for name, a, b in zip(("edge", "vertex"), local, full, strict=True):
-        same = all(np.array_equal(x, y) for x, y in zip(a._columns(), b._columns(), strict=True))
-        if not same:
+        if not _same(a, b):
             raise InternalCheckError(
                 f"the {name} defects counted around the touched samples differ from a "
                 f"count over every facet ({len(a.ids)} against {len(b.ids)} rows)"

@@ -253,7 +253,8 @@ def topology_report(
 
 
 def _relabelled(r: Relabelled, link: float) -> dict[str, Any]:
-    """``report["relabelled"]``: where the output faces are not restricted facets."""
+    """``report["relabelled"]``: where the output faces are not restricted
+    facets (a face added there has its circumcentre as its facet centre)."""
     return {
         "pinched_vertices": r.pinched,
         "cells_flipped": r.cells,
