@@ -10,9 +10,13 @@ mesh is closed, and says so in its report.
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 import pytest
 import rdmesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rdmesh import core
 from rdmesh.refine import mesher
 from rdmesh.topology.complex import complex_status, is_closed_manifold
@@ -95,8 +99,8 @@ def _cells_sharing_an_edge():
     """A small triangulation and two of its cells that share an edge but no facet."""
     rng = np.random.default_rng(3)
     rdt = core.RestrictedDelaunay([0.0, 0.0, 0.0], 2.0)
-    pts = rng.uniform(-0.5, 0.5, (60, 3))
-    rdt.insert(pts)
+    rdt.insert(rng.uniform(-0.5, 0.5, (60, 3)))
+    pts = rdt.samples()  # by sample id (insertion sorts the points)
     cells, _ = rdt.star_cells(np.arange(60))
     cells = cells[(cells >= 0).all(axis=1)]
     for i in range(len(cells)):
@@ -161,3 +165,65 @@ def test_relabel_stars_rejects_bad_input(faces, ids, message):
         )
     with pytest.raises(ValueError, match="out of range"):
         rdt.star_cells(np.array([10]))
+
+
+def _boundary_of_labelling(pts, cells, inside):
+    """Outward faces between cells labelled inside and the rest."""
+    faces = []
+    keys = {}
+    for c, q in enumerate(cells):
+        for d in range(4):
+            t = tuple(sorted(v for k, v in enumerate(q) if k != d))
+            keys.setdefault(t, []).append((c, q[d]))
+    for t, owners in keys.items():
+        if min(t) < 0:
+            continue
+        labels = [inside[c] for c, _ in owners]
+        if len(owners) == 1 and labels[0]:
+            raise AssertionError("an inside cell on the hull of the gathered cells")
+        if len(owners) == 2 and labels[0] != labels[1]:
+            c, d = owners[0] if labels[0] else owners[1]
+            p = pts[list(t)]
+            if np.linalg.det(np.stack([p[1] - p[0], p[2] - p[0], pts[d] - p[0]])) > 0:
+                t = (t[0], t[2], t[1])
+            faces.append(t)
+    return np.array(faces, np.int64).reshape(-1, 3)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_relabelling_keeps_the_boundary_of_a_labelling(seed):
+    """Random inside cells: after each pass of relabel_stars at the pinched
+    vertices the faces still bound a labelling, consistently oriented (each
+    edge is used as often in one direction as in the other); after the
+    passes, nothing is pinched."""
+    rng = np.random.default_rng(seed)
+    rdt = core.RestrictedDelaunay([0.0, 0.0, 0.0], 2.0)
+    rdt.insert(rng.uniform(-0.5, 0.5, (40, 3)))
+    pts = rdt.samples()  # by sample id (insertion sorts the points)
+    cells, _ = rdt.star_cells(np.arange(40))
+    # Cells of the inner points only, so no inside cell touches a dummy.
+    inner = np.flatnonzero(np.abs(pts).max(axis=1) < 0.3)
+    eligible = (cells >= 0).all(axis=1) & np.isin(cells, inner).all(axis=1)
+    inside = eligible & (rng.random(len(cells)) < 0.5)
+    faces = _boundary_of_labelling(pts, cells, inside)
+    if not len(faces):
+        return
+    from rdmesh.topology.relabel import MAX_PASSES, pinched_vertices
+
+    n = len(pts)
+    cost = rng.random(len(cells))
+    out = faces
+    for _ in range(MAX_PASSES):
+        todo = pinched_vertices(complex_status(out, n), n)
+        if not len(todo):
+            break
+        out, flipped = rdt.relabel_stars(out, todo, cells, cost)
+        assert len(flipped)
+        directed = np.concatenate([out[:, [0, 1]], out[:, [1, 2]], out[:, [2, 0]]])
+        uses = Counter(map(tuple, directed.tolist()))
+        assert all(uses[(b, a)] == k for (a, b), k in uses.items())
+    # The passes relabel_pinches makes leave no vertex pinched (no cell near
+    # the dummies is inside, so every group may move).
+    if len(out):
+        assert not len(pinched_vertices(complex_status(out, n), n))
