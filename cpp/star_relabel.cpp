@@ -173,6 +173,8 @@ StarRelabel RestrictedDelaunay::relabel_stars(const std::int64_t* faces, std::si
       }
       return sorted3(t[0], t[1], t[2]);
     };
+    // Each move removes the faces between the moved group and its
+    // neighbours, so it joins them: the groups fall by one or more each time.
     for (;;) {
       Union groups(cells.size());
       for (std::size_t c = 0; c < cells.size(); ++c) {

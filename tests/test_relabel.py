@@ -227,3 +227,25 @@ def test_relabelling_keeps_the_boundary_of_a_labelling(seed):
     # the dummies is inside, so every group may move).
     if len(out):
         assert not len(pinched_vertices(complex_status(out, n), n))
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_faces_that_bound_no_labelling_end_without_a_hang(seed):
+    """Faces dropped at random from a labelling's boundary bound no labelling
+    (edges in an odd number of faces): relabel_stars still ends, at every
+    vertex of a face, and returns Delaunay facets only."""
+    rng = np.random.default_rng(seed)
+    rdt = core.RestrictedDelaunay([0.0, 0.0, 0.0], 2.0)
+    rdt.insert(rng.uniform(-0.5, 0.5, (40, 3)))
+    pts = rdt.samples()
+    cells, _ = rdt.star_cells(np.arange(40))
+    inner = np.flatnonzero(np.abs(pts).max(axis=1) < 0.3)
+    eligible = (cells >= 0).all(axis=1) & np.isin(cells, inner).all(axis=1)
+    faces = _boundary_of_labelling(pts, cells, eligible & (rng.random(len(cells)) < 0.5))
+    faces = faces[rng.random(len(faces)) < 0.8]
+    if not len(faces):
+        return
+    # Every vertex of a face, pinched or not.
+    out, _ = rdt.relabel_stars(faces, np.unique(faces), cells, rng.random(len(cells)))
+    assert rdt.is_facet(out).all()
