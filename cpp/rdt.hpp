@@ -24,6 +24,8 @@
 #include <memory>
 #include <mutex>
 #include <new>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -169,6 +171,12 @@ struct StarRelabel {
   std::vector<std::int64_t> faces;    // k*3, oriented outward
   std::vector<std::int64_t> flipped;  // c*4 sorted ids of each cell flipped
 };
+
+// Throws std::invalid_argument unless 0 <= id < n (a sample id).
+inline void check_sample_id(std::int64_t id, std::size_t n) {
+  if (id < 0 || id >= static_cast<std::int64_t>(n))
+    throw std::invalid_argument("vertex id " + std::to_string(id) + " out of range");
+}
 
 // The distinct cells around some samples (star_relabel.cpp).
 struct StarCells {

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "rdt.hpp"
@@ -76,17 +77,15 @@ struct Union {
 }  // namespace
 
 StarCells RestrictedDelaunay::star_cells(const std::int64_t* ids, std::size_t k) {
-  const auto n = static_cast<std::int64_t>(samples_.size());
   StarCells out;
-  std::unordered_map<Cell_handle, bool> seen;
+  std::unordered_set<Cell_handle> seen;
   std::vector<Cell_handle> star;
   for (std::size_t i = 0; i < k; ++i) {
-    if (ids[i] < 0 || ids[i] >= n)
-      throw std::invalid_argument("vertex id " + std::to_string(ids[i]) + " out of range");
+    check_sample_id(ids[i], samples_.size());
     star.clear();
     dt_.incident_cells(samples_[ids[i]], std::back_inserter(star));
     for (Cell_handle c : star) {
-      if (dt_.is_infinite(c) || !seen.emplace(c, true).second) continue;
+      if (dt_.is_infinite(c) || !seen.insert(c).second) continue;
       std::array<std::int64_t, 4> q{};
       for (int d = 0; d < 4; ++d) q[d] = is_dummy(c->vertex(d)) ? -1 : c->vertex(d)->info().id;
       std::sort(q.begin(), q.end());
@@ -102,17 +101,13 @@ StarRelabel RestrictedDelaunay::relabel_stars(const std::int64_t* faces, std::si
                                               const std::int64_t* ids, std::size_t k,
                                               const std::int64_t* cells4, const double* cost,
                                               std::size_t c) const {
-  const auto n = static_cast<std::int64_t>(samples_.size());
-  auto check = [n](std::int64_t id) {
-    if (id < 0 || id >= n)
-      throw std::invalid_argument("vertex id " + std::to_string(id) + " out of range");
-  };
+  const std::size_t n = samples_.size();
   Faces set;
   set.entries.reserve(F + 64);
   set.index.reserve(F + 64);
   for (std::size_t f = 0; f < F; ++f) {
     const Key t{faces[3 * f], faces[3 * f + 1], faces[3 * f + 2]};
-    for (std::int64_t id : t) check(id);
+    for (std::int64_t id : t) check_sample_id(id, n);
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
       throw std::invalid_argument("face " + std::to_string(f) + " repeats a vertex");
     const Key key = sorted3(t[0], t[1], t[2]);
@@ -120,7 +115,7 @@ StarRelabel RestrictedDelaunay::relabel_stars(const std::int64_t* faces, std::si
       throw std::invalid_argument("face " + std::to_string(f) + " is given twice");
     set.toggle(key, t);
   }
-  for (std::size_t i = 0; i < k; ++i) check(ids[i]);
+  for (std::size_t i = 0; i < k; ++i) check_sample_id(ids[i], n);
   std::unordered_map<std::array<std::int64_t, 4>, double, IdsHash> cost_of;
   cost_of.reserve(c);
   for (std::size_t i = 0; i < c; ++i) {
@@ -134,7 +129,11 @@ StarRelabel RestrictedDelaunay::relabel_stars(const std::int64_t* faces, std::si
   order.erase(std::unique(order.begin(), order.end()), order.end());
 
   auto id_of = [this](Vertex_handle v) { return is_dummy(v) ? std::int64_t{-1} : v->info().id; };
-  auto point = [](Vertex_handle v) { return v->point().point(); };
+  // Which side of the oriented face t the vertex w lies on.
+  auto side = [this](const Key& t, Vertex_handle w) {
+    return CGAL::orientation(samples_[t[0]]->point().point(), samples_[t[1]]->point().point(),
+                             samples_[t[2]]->point().point(), w->point().point());
+  };
   StarRelabel out;
   std::vector<Cell_handle> star;
   std::vector<std::array<std::int64_t, 4>> cell_ids;
@@ -214,10 +213,7 @@ StarRelabel RestrictedDelaunay::relabel_stars(const std::int64_t* faces, std::si
           bool has_dummy;
           const Faces::Entry* e = set.find(facet_key(cells[c], d, has_dummy));
           if (!e) continue;
-          const auto& t = e->tri;
-          const auto o = CGAL::orientation(point(samples_[t[0]]), point(samples_[t[1]]),
-                                           point(samples_[t[2]]), point(cells[c]->vertex(d)));
-          inside = o == CGAL::NEGATIVE ? 1 : 0;
+          inside = side(e->tri, cells[c]->vertex(d)) == CGAL::NEGATIVE ? 1 : 0;
         }
       }
       if (inside < 0) break;  // no face bounds it: not with more than two groups
@@ -230,9 +226,8 @@ StarRelabel RestrictedDelaunay::relabel_stars(const std::int64_t* faces, std::si
           const Key key = facet_key(cells[c], d, has_dummy);
           Key t = key;
           // Outward: away from the cell when it becomes inside.
-          const auto o = CGAL::orientation(point(samples_[t[0]]), point(samples_[t[1]]),
-                                           point(samples_[t[2]]), point(cells[c]->vertex(d)));
-          if ((o == CGAL::NEGATIVE) != (inside == 0)) std::swap(t[1], t[2]);
+          if ((side(t, cells[c]->vertex(d)) == CGAL::NEGATIVE) != (inside == 0))
+            std::swap(t[1], t[2]);
           set.toggle(key, t);
         }
         std::sort(q.begin(), q.end());

@@ -15,11 +15,6 @@ namespace rdmesh {
 
 namespace {
 
-void check_id(std::int64_t id, std::size_t n) {
-  if (id < 0 || id >= static_cast<std::int64_t>(n))
-    throw std::invalid_argument("vertex id " + std::to_string(id) +
-                                " out of range");
-}
 
 }  // namespace
 
@@ -27,8 +22,8 @@ VoronoiFacets RestrictedDelaunay::voronoi_facets(const std::int64_t* edges,
                                                  std::size_t m) {
   const std::size_t n = samples_.size();
   for (std::size_t k = 0; k < m; ++k) {
-    check_id(edges[2 * k], n);
-    check_id(edges[2 * k + 1], n);
+    check_sample_id(edges[2 * k], n);
+    check_sample_id(edges[2 * k + 1], n);
     if (edges[2 * k] == edges[2 * k + 1])
       throw std::invalid_argument("edge " + std::to_string(k) +
                                   " joins vertex " +
@@ -233,7 +228,7 @@ std::vector<std::int64_t> RestrictedDelaunay::delaunay_edges(
     keys.reserve(6 * dt_.number_of_finite_cells());
     for (auto c = dt_.finite_cells_begin(); c != dt_.finite_cells_end(); ++c) add_cell(c);
   } else {
-    for (std::size_t k = 0; k < n; ++k) check_id(ids[k], samples_.size());
+    for (std::size_t k = 0; k < n; ++k) check_sample_id(ids[k], samples_.size());
     std::vector<Cell_handle> around;
     for (std::size_t k = 0; k < n; ++k) {
       around.clear();
@@ -254,7 +249,7 @@ std::vector<std::int64_t> RestrictedDelaunay::delaunay_edges(
 std::vector<double> RestrictedDelaunay::voronoi_cell_boxes(const std::int64_t* ids,
                                                            std::size_t n) {
   const std::size_t m = samples_.size();
-  for (std::size_t k = 0; k < n; ++k) check_id(ids[k], m);
+  for (std::size_t k = 0; k < n; ++k) check_sample_id(ids[k], m);
   const double inf = std::numeric_limits<double>::infinity();
   std::vector<double> out(6 * n);
   std::vector<Cell_handle> star;

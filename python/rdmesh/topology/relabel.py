@@ -55,7 +55,7 @@ class Relabelled:
 
 def pinched_vertices(status: ComplexStatus, n_vertices: int) -> np.ndarray:
     """Sample ids at an edge in three or more faces, or with two or more fans."""
-    edges = status.edge_key[status.edge_count >= 3]
+    edges = status.edge_key[status.bad_edges(allow_boundary=True)]
     fans = np.flatnonzero(status.vertex_fans > 1)
     return np.unique(np.concatenate([edges // n_vertices, edges % n_vertices, fans]))
 
@@ -99,9 +99,9 @@ def relabel_pinches(
     n = len(vertices)
     st = complex_status(faces, n) if status is None else status
     todo = pinched_vertices(st, n)
-    seen, out, flips = [todo], faces, 0
     if not len(todo):
         return None
+    seen, out, flips = [todo], faces, 0
     for _ in range(MAX_PASSES):
         cells, cc = rdt.star_cells(todo)
         out, flipped = rdt.relabel_stars(out, todo, cells, surface_distance(surface, cc))
