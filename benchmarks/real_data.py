@@ -439,7 +439,9 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", default=None, help="comma-separated fractions of the diagonal")
     ap.add_argument("--repeat", type=int, default=1, help="runs of each remesher (median)")
     ap.add_argument(
-        "--reference-factor", type=int, default=2,
+        "--reference-factor",
+        type=int,
+        default=2,
         help="volumes: the reference resamples the interpolant this many times finer",
     )
     args = ap.parse_args(argv)

@@ -59,7 +59,7 @@ class SurfaceMesh:
         ``level``, ``violations``, ``repaired``, ``basis``), ``seeding``,
         ``components``, ``euler``, ``boundary_loops``, ``closed_manifold``,
         ``boundary``, ``unresolved_regions``, ``violation_regions``,
-        ``critical_points``, ``relabelled``, ``statement`` and ``features``
+        ``critical_points``, ``relabelled``, ``pockets``, ``statement`` and ``features``
         (the feature check, None without protected curves);
         :mod:`rdmesh.topology.report` says what each holds.
     features : MeshFeatures or None

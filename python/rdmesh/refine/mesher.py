@@ -21,7 +21,7 @@ import numpy as np
 from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._regions import describe_regions, regions
-from .._tol import REGION_LINK
+from .._tol import REGION_LINK, TOPOLOGY_FLOOR
 from .._vectors import row_index
 from ..creases.search import CreaseSearch
 from ..features.check import check_features, repair_sites
@@ -35,6 +35,7 @@ from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.defects import ComplexDefects
 from ..topology.loops import LoopMemo
+from ..topology.pockets import Pockets, drop_pockets
 from ..topology.proven_cells import ProofMemo
 from ..topology.relabel import Relabelled, relabel_pinches
 from ..topology.snapshot import confirm_defects
@@ -449,6 +450,31 @@ def _relabel(m: Mesher, plan: Plan, snap: Snapshot) -> Relabelled | None:
     return r
 
 
+def _pockets(m: Mesher, faces: np.ndarray) -> Pockets | None:
+    """Output components that the input's known topology rules out (a remeshed
+    closed mesh only): smaller than the size bound (without one, 1 % of the
+    bounding radius), on input components that a larger output component covers."""
+    if m.clipped or not getattr(m.surface, "topology_known", False):
+        return None
+    size = m.criteria.sizing
+    r = m.surface.radius
+
+    def bound(p: np.ndarray) -> np.ndarray:
+        s = size(p)
+        return np.full(len(p), TOPOLOGY_FLOOR * r) if s is None else s
+
+    p = drop_pockets(m.vertices, faces, m.surface.input_components, bound)
+    if p is not None:
+        log.warning(
+            "closed components smaller than the size bound were dropped: %d (%d faces), on "
+            "input components that a larger one covers: the input's topology rules them "
+            "out (%s)",
+            len(p.centres), p.faces,
+            describe_regions(regions(p.centres, REGION_LINK * m.surface.radius)),
+        )  # fmt: skip
+    return p
+
+
 def _result(
     m: Mesher, plan: Plan, t0: float, evals0: int, ivals0: int, stop: str | None
 ) -> SurfaceMesh:
@@ -460,6 +486,9 @@ def _result(
     faces = tri
     if relabelled is not None:
         faces, centres = relabelled.faces, relabelled.centres
+    pockets = _pockets(m, faces)
+    if pockets is not None:
+        faces, centres = faces[pockets.keep], centres[pockets.keep]
     unresolved = np.concatenate(m.unresolved) if m.unresolved else np.zeros((0, 3))
     mesh = SurfaceMesh.from_facets(m.vertices, faces, centres, unresolved)
     if plan.balls is not None:
@@ -492,6 +521,7 @@ def _result(
                 quick=bool(stop and stop.startswith("time_limit")),
                 cut=_cut_centroids(m, tri),
                 relabelled=relabelled,
+                pockets=pockets,
             )
         mesh.report["features"] = _features_report(mesh, plan)
         if m.creases is not None:

@@ -12,6 +12,7 @@ import logging
 
 import numpy as np
 
+from .._mesh_components import components
 from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
 
@@ -97,6 +98,20 @@ class MeshReport:
             return None
         out["statement"] = "; ".join(said)
         return out
+
+    @property
+    def topology_known(self) -> bool:
+        """The input is closed and does not intersect itself: each of its
+        components bounds a solid, so the remesh's components are known."""
+        return self.sign_method == "side" and not len(self.self_intersections)
+
+    def input_components(self, points: np.ndarray) -> np.ndarray:
+        """(N,) the input component (faces joined through shared vertices) of
+        the face closest to each of ``points``."""
+        if getattr(self, "_face_component", None) is None:
+            self._face_component = components(self.faces, len(self.vertices))[1]
+        _, face = self.closest_points(points)
+        return self._face_component[face]
 
     def unit_gradient_at(self, points: np.ndarray) -> np.ndarray:
         """(N,) bool: points where ``f``'s gradient, where it has one, is a unit

@@ -14,6 +14,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .. import core
+from .._mesh_components import labelled_components
 
 
 @dataclass
@@ -133,44 +134,6 @@ def largest_incident(group: np.ndarray, facet: np.ndarray, radius: np.ndarray) -
     return np.unique(largest_per_group(group, facet, radius))
 
 
-def components(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
-    """Connected components of a triangle set (facets sharing a vertex).
-
-    Returns
-    -------
-    count : int
-    face_label : (F,) component of each face, numbered by first face.
-    """
-    count, face_label, _ = _components(np.asarray(faces, dtype=np.int64), n_vertices)
-    return count, face_label
-
-
-def _components(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray, np.ndarray]:
-    """:func:`components`, and the component of each vertex (-1 where it has no face).
-
-    The graph joins each face's first vertex to the other two: its nodes are
-    the vertices, not the faces and vertices, so that it stays small (it sets
-    the peak memory of the final report).
-    """
-    F = len(faces)
-    if F == 0:
-        return 0, np.zeros(0, np.int64), np.full(n_vertices, -1, np.int64)
-    rows = np.empty(2 * F, np.int32)
-    cols = np.empty(2 * F, np.int32)
-    rows[:F] = rows[F:] = faces[:, 0]
-    cols[:F], cols[F:] = faces[:, 1], faces[:, 2]
-    g = coo_matrix((np.ones(2 * F, bool), (rows, cols)), shape=(n_vertices, n_vertices))
-    del rows, cols
-    k, label = connected_components(g, directed=False)
-    del g
-    # Renumber by first face, for stable output.
-    face_raw = label[faces[:, 0]]
-    raw, first = np.unique(face_raw, return_index=True)
-    rank = np.full(k, -1, np.int64)
-    rank[raw] = np.argsort(np.argsort(first))
-    return len(raw), rank[face_raw], rank[label]
-
-
 def distinct_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
     """The distinct edges of a triangle set, by sorted key ``min * n + max``,
     and the faces of each edge."""
@@ -195,7 +158,7 @@ def component_topology(faces: np.ndarray, n_vertices: int) -> tuple[list[int], l
     """:func:`euler_characteristics` and :func:`boundary_loops` at once: the
     components and edges are found once."""
     faces = np.asarray(faces, dtype=np.int64)
-    count, face_label, vertex_label = _components(faces, n_vertices)
+    count, face_label, vertex_label = labelled_components(faces, n_vertices)
     if count == 0:
         return [], []
     # A vertex or an edge lies in the component of any face that has it.

@@ -59,6 +59,7 @@ from ..sampling.critical import CriticalPoints
 from ..sampling.discovery import Discovery
 from ..sampling.probes import Probes
 from .complex import component_topology, is_closed_manifold
+from .pockets import Pockets
 from .relabel import Relabelled
 from .singular import singular_points
 from .snapshot import Snapshot
@@ -125,6 +126,7 @@ def topology_report(
     boundary: BoundaryCurve | None = None,
     cut: np.ndarray | None = None,
     relabelled: Relabelled | None = None,
+    pockets: Pockets | None = None,
 ) -> dict[str, Any]:
     """The topology report of a finished run (see :attr:`SurfaceMesh.report`).
 
@@ -144,7 +146,10 @@ def topology_report(
     out because their dual edge crossed the surface an even number of times
     below the spacing floor: Voronoi-edge violations. ``relabelled`` says
     which faces differ from the restricted facets (pinched vertices made one
-    disk); the mesh's closedness is then read from ``faces``.
+    disk); ``pockets`` which closed components the input's known topology
+    ruled out. With either, the mesh's closedness is read from ``faces`` and
+    the topological-ball property is not claimed (the faces are not the
+    restricted Delaunay facets).
     """
     tests: dict[str, dict[str, Any]] = {}
     where = []
@@ -193,7 +198,8 @@ def topology_report(
     # The output faces are the restricted facets: every edge in two faces is
     # the Voronoi-facet test, one fan per vertex is the disk test.
     closed = bool(len(faces) and tests["voronoi_facet"]["held"] and tests["disk"]["held"])
-    if relabelled is not None:
+    changed = relabelled is not None or pockets is not None
+    if changed:
         closed = is_closed_manifold(faces, n_mesh_vertices)
     unresolved_regions = regions(unresolved, link)
     violation_regions = regions(np.concatenate(where) if where else np.zeros((0, 3)), link)
@@ -202,7 +208,12 @@ def topology_report(
     all_held = all(t["held"] is True for t in tests.values())
     seeding = _seeding(discovery, link)
     holds = bool(
-        all_held and complete and len(unresolved) == 0 and len(faces) > 0 and len(singular) == 0
+        not changed
+        and all_held
+        and complete
+        and len(unresolved) == 0
+        and len(faces) > 0
+        and len(singular) == 0
     )
     report: dict[str, Any] = {
         "method": method,
@@ -234,6 +245,7 @@ def topology_report(
         "spacing_floor": floor,
         "critical_points": None,
         "relabelled": None if relabelled is None else _relabelled(relabelled, link),
+        "pockets": None if pockets is None else _pockets(pockets, link),
     }
     if critical is not None:
         morse = critical.euler
@@ -261,6 +273,17 @@ def _relabelled(r: Relabelled, link: float) -> dict[str, Any]:
         "faces_changed": len(r.changed),
         "still_pinched": len(r.left),
         "regions": regions(r.changed, link),
+    }
+
+
+def _pockets(p: Pockets, link: float) -> dict[str, Any]:
+    """``report["pockets"]``: the closed components dropped because the
+    input's topology rules them out."""
+    return {
+        "dropped": len(p.centres),
+        "faces": p.faces,
+        "largest": float(p.sizes.max()),
+        "regions": regions(p.centres, link),
     }
 
 
@@ -462,6 +485,14 @@ def _statement(rep: dict[str, Any]) -> str:
                 f"surface, so {rel['faces_changed']} faces are not restricted Delaunay facets "
                 f"({describe_regions(rel['regions'])})"
                 + (f"; {rel['still_pinched']} are still pinched" if rel["still_pinched"] else "")
+            )
+        pockets = rep.get("pockets")
+        if pockets:
+            why.append(
+                f"closed components smaller than the size bound were dropped: "
+                f"{pockets['dropped']} (at most {pockets['largest']:.3g} across, "
+                f"{describe_regions(pockets['regions'])}), on input components that a larger "
+                "output component covers: the closed input's topology rules them out"
             )
         if rep["unresolved"]:
             why.append(

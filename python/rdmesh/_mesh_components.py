@@ -1,0 +1,46 @@
+"""Connected components of a triangle set, shared by the topology report and the
+mesh input (which must not import :mod:`rdmesh.topology`)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+
+def components(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray]:
+    """Connected components of a triangle set (facets sharing a vertex).
+
+    Returns
+    -------
+    count : int
+    face_label : (F,) component of each face, numbered by first face.
+    """
+    count, face_label, _ = labelled_components(np.asarray(faces, dtype=np.int64), n_vertices)
+    return count, face_label
+
+
+def labelled_components(faces: np.ndarray, n_vertices: int) -> tuple[int, np.ndarray, np.ndarray]:
+    """:func:`components`, and the component of each vertex (-1 where it has no face).
+
+    The graph joins each face's first vertex to the other two: its nodes are
+    the vertices, not the faces and vertices, so that it stays small (it sets
+    the peak memory of the final report).
+    """
+    F = len(faces)
+    if F == 0:
+        return 0, np.zeros(0, np.int64), np.full(n_vertices, -1, np.int64)
+    rows = np.empty(2 * F, np.int32)
+    cols = np.empty(2 * F, np.int32)
+    rows[:F] = rows[F:] = faces[:, 0]
+    cols[:F], cols[F:] = faces[:, 1], faces[:, 2]
+    g = coo_matrix((np.ones(2 * F, bool), (rows, cols)), shape=(n_vertices, n_vertices))
+    del rows, cols
+    k, label = connected_components(g, directed=False)
+    del g
+    # Renumber by first face, for stable output.
+    face_raw = label[faces[:, 0]]
+    raw, first = np.unique(face_raw, return_index=True)
+    rank = np.full(k, -1, np.int64)
+    rank[raw] = np.argsort(np.argsort(first))
+    return len(raw), rank[face_raw], rank[label]

@@ -1,0 +1,96 @@
+"""Pockets the input's topology rules out, dropped from a remesh (issue 30).
+
+Where two sheets of an input mesh come closer than the spacing floor (the
+banks of a brain's sulcus), the final complex can hold tiny closed
+components: a Delaunay cell or two of the thin gap, sealed off by the
+relabelling of pinched vertices (:mod:`rdmesh.topology.relabel`). An input
+that is a closed, non-self-intersecting mesh has a known topology: each of
+its components is one closed surface. So an output component that is smaller
+than the size bound and lies on input components that a larger output
+component already covers is not part of that topology, and is dropped.
+Only inputs whose components are known (:meth:`MeshSurface.input_components`)
+are pruned; volumes and expressions, whose small components can be real,
+never are.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._mesh_components import labelled_components
+
+
+@dataclass
+class Pockets:
+    """What :func:`drop_pockets` removed.
+
+    Attributes
+    ----------
+    keep : (F,) bool, the faces kept.
+    centres : (k, 3) the centroid of each dropped component.
+    sizes : (k,) the largest extent of each along an axis.
+    faces : number of faces dropped.
+    """
+
+    keep: np.ndarray
+    centres: np.ndarray
+    sizes: np.ndarray
+    faces: int
+
+
+def drop_pockets(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    input_components: Callable[[np.ndarray], np.ndarray],
+    size: Callable[[np.ndarray], np.ndarray],
+) -> Pockets | None:
+    """The output components that are pockets; None when there are none.
+
+    Parameters
+    ----------
+    vertices : (n, 3) sample positions.
+    faces : (F, 3) the output faces (sample ids).
+    input_components : maps ``(k, 3)`` points on the input to the input
+        component they lie on, ``(k,)`` int.
+    size : the size bound at ``(k, 3)`` points, ``(k,)``.
+
+    A component is a pocket when it is the largest output component (by
+    faces; the first on ties) of none of the input components its vertices
+    lie on, and its largest extent along an axis is below the size bound at
+    its centroid.
+    """
+    n = len(vertices)
+    count, face_label, vertex_label = labelled_components(np.asarray(faces, np.int64), n)
+    if count < 2:
+        return None
+    used = np.flatnonzero(vertex_label >= 0)
+    comp = vertex_label[used]
+    pts = vertices[used]
+    lo = np.full((count, 3), np.inf)
+    hi = np.full((count, 3), -np.inf)
+    np.minimum.at(lo, comp, pts)
+    np.maximum.at(hi, comp, pts)
+    extent = (hi - lo).max(axis=1)
+    centre = np.stack([np.bincount(comp, pts[:, a], count) for a in range(3)], axis=1)
+    centre /= np.bincount(comp, minlength=count)[:, None]
+    nfaces = np.bincount(face_label, minlength=count)
+    # The output components on each input component, largest first.
+    pairs = np.unique(np.stack([input_components(pts), comp], axis=1), axis=0)
+    order = np.lexsort((pairs[:, 1], -nfaces[pairs[:, 1]], pairs[:, 0]))
+    pairs = pairs[order]
+    first = np.r_[True, pairs[1:, 0] != pairs[:-1, 0]]
+    main = np.zeros(count, bool)
+    main[pairs[first, 1]] = True
+    pocket = ~main & (extent < size(centre))
+    if not pocket.any():
+        return None
+    keep = ~pocket[face_label]
+    return Pockets(
+        keep=keep,
+        centres=centre[pocket],
+        sizes=extent[pocket],
+        faces=int((~keep).sum()),
+    )

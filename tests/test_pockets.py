@@ -1,0 +1,163 @@
+"""Pockets that a closed input's topology rules out, dropped from the remesh.
+
+Two unit spheres whose surfaces are 1e-5 apart, given as one closed mesh, meet
+where the gap is far thinner than the spacing floor: the relabelled complex
+there seals off single Delaunay cells of the gap as tiny closed components.
+The input's components are known (two closed, non-self-intersecting spheres),
+so output components smaller than the size bound on input components that a
+larger output component covers are dropped, and the report says so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rdmesh
+import trimesh
+from rdmesh.refine import mesher
+from rdmesh.topology.complex import component_topology, is_closed_manifold
+from rdmesh.topology.pockets import drop_pockets
+
+RADIUS_BOUND = 0.1
+
+
+def _two_spheres(gap: float) -> rdmesh.MeshSurface:
+    a = trimesh.creation.icosphere(subdivisions=4)
+    b = a.copy()
+    a.apply_translation([0.0, 0.0, 1.0 + gap / 2])
+    b.apply_translation([0.0, 0.0, -1.0 - gap / 2])
+    return rdmesh.MeshSurface(trimesh.util.concatenate([a, b]), feature_angle=None)
+
+
+def _remesh(surface: rdmesh.MeshSurface) -> rdmesh.SurfaceMesh:
+    return rdmesh.mesh_surface(
+        surface, radius_bound=RADIUS_BOUND, distance_bound=RADIUS_BOUND / 10, seed=0
+    )
+
+
+@pytest.fixture(scope="module")
+def touching():
+    return _two_spheres(1e-5)
+
+
+@pytest.fixture(scope="module")
+def pruned(touching):
+    return _remesh(touching)
+
+
+@pytest.fixture(scope="module")
+def unpruned(touching):
+    patch = pytest.MonkeyPatch()
+    patch.setattr(mesher, "_pockets", lambda m, faces: None)
+    try:
+        return _remesh(touching)
+    finally:
+        patch.undo()
+
+
+def _parts(mesh: rdmesh.SurfaceMesh) -> list[trimesh.Trimesh]:
+    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    return sorted(tm.split(only_watertight=False), key=lambda p: len(p.faces))
+
+
+def test_without_dropping_the_gap_holds_tiny_components(unpruned):
+    parts = _parts(unpruned)
+    assert len(parts) > 2
+    small = parts[:-2]
+    assert all(np.ptp(p.vertices, axis=0).max() < RADIUS_BOUND for p in small)
+    assert unpruned.report["pockets"] is None
+
+
+def test_dropped_pockets_are_reported_and_the_rest_is_kept(pruned, unpruned):
+    rep = pruned.report["pockets"]
+    assert rep is not None and rep["dropped"] >= 1
+    assert rep["largest"] < RADIUS_BOUND
+    assert "closed components smaller than the size bound" in pruned.report["statement"]
+    assert not pruned.report["tbp_holds"]
+    # Exactly the small components are gone; every large one is kept.
+    before, after = _parts(unpruned), _parts(pruned)
+    assert len(before) - len(after) == rep["dropped"]
+    assert sum(len(p.faces) for p in before) - len(pruned.faces) == rep["faces"]
+    big = [len(p.faces) for p in before if np.ptp(p.vertices, axis=0).max() >= RADIUS_BOUND]
+    assert sorted(big) == sorted(len(p.faces) for p in after)
+    assert pruned.report["components"] == len(after)
+
+
+def test_pruned_mesh_is_closed_without_unused_vertices(pruned):
+    assert is_closed_manifold(pruned.faces, len(pruned.vertices))
+    assert pruned.report["closed_manifold"]
+    assert len(np.unique(pruned.faces)) == len(pruned.vertices)
+    chi, _ = component_topology(pruned.faces, len(pruned.vertices))
+    assert chi == pruned.report["euler"]
+
+
+def test_separated_input_keeps_both_components():
+    mesh = _remesh(_two_spheres(0.05))
+    assert mesh.report["pockets"] is None
+    assert mesh.report["components"] == 2
+    assert mesh.report["euler"] == [2, 2]
+
+
+def test_input_components_and_known_topology(touching):
+    assert touching.topology_known
+    top = touching.input_components(np.array([[0.0, 0.0, 2.0], [0.0, 0.0, -2.0]]))
+    assert top[0] != top[1]
+    open_half = trimesh.creation.icosphere(subdivisions=3)
+    keep = open_half.triangles_center[:, 2] > -0.5
+    cut = rdmesh.MeshSurface((open_half.vertices, open_half.faces[keep]), feature_angle=None)
+    assert not cut.topology_known
+
+
+# drop_pockets alone, on hand-made faces: an icosphere and a small tetrahedron.
+
+
+def _sphere_and_tet(offset: float, scale: float):
+    s = trimesh.creation.icosphere(subdivisions=2)
+    tet = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float) * scale
+    tet += [0.0, 0.0, offset]
+    verts = np.concatenate([s.vertices, tet])
+    n = len(s.vertices)
+    tfaces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]) + n
+    return verts, np.concatenate([s.faces, tfaces]), len(s.faces)
+
+
+def _bound(value: float):
+    return lambda p: np.full(len(p), value)
+
+
+def test_drop_pockets_drops_a_small_component_on_a_covered_input():
+    v, f, n_sphere = _sphere_and_tet(1.0, 0.01)
+    p = drop_pockets(v, f, lambda q: np.zeros(len(q), np.int64), _bound(0.1))
+    assert p is not None
+    assert p.keep[:n_sphere].all() and not p.keep[n_sphere:].any()
+    assert p.faces == 4 and len(p.centres) == 1
+    assert p.sizes[0] == pytest.approx(0.01)
+
+
+def test_drop_pockets_keeps_components_at_or_above_the_bound():
+    v, f, _ = _sphere_and_tet(1.0, 0.01)
+    assert drop_pockets(v, f, lambda q: np.zeros(len(q), np.int64), _bound(0.01)) is None
+
+
+def test_drop_pockets_keeps_the_only_component_of_an_input():
+    v, f, _ = _sphere_and_tet(3.0, 0.01)
+
+    # The tetrahedron lies on an input component of its own.
+    def label(q):
+        return (q[:, 2] > 2.0).astype(np.int64)
+
+    assert drop_pockets(v, f, label, _bound(0.1)) is None
+
+
+def test_drop_pockets_keeps_the_component_with_most_faces_even_when_small():
+    v, f, n_sphere = _sphere_and_tet(1.0, 0.01)
+    # Both components are below the bound: the one with the most faces stays.
+    p = drop_pockets(v, f, lambda q: np.zeros(len(q), np.int64), _bound(100.0))
+    assert p is not None
+    assert p.keep[:n_sphere].all() and not p.keep[n_sphere:].any()
+
+
+def test_drop_pockets_single_component_is_none():
+    s = trimesh.creation.icosphere(subdivisions=1)
+    zero = np.zeros(len(s.vertices), np.int64)
+    assert drop_pockets(s.vertices, s.faces, lambda q: zero[: len(q)], _bound(9.0)) is None
