@@ -34,6 +34,7 @@ from .tests import (
     SILHOUETTE_ANGLE,
     Violations,
     disk_test,
+    isolated_count,
     isolated_test,
     silhouette_test,
     voronoi_edge_test,
@@ -180,6 +181,8 @@ class Snapshot:
             )  # fmt: skip
         if kind == "proven_silhouette":
             return self.cell_proof.violations
+        if kind == "isolated_count":
+            return isolated_count(self.vertices, tri, self.weights)
         if kind == "isolated":
             return isolated_test(self.surface, self.vertices, tri, self.tree, self.weights)
         if kind == "silhouette":

@@ -142,20 +142,58 @@ def isolated_test(surface, vertices, tri, tree=None, weights=None) -> Violations
     balls (``weights``), balls are not tested (the feature check covers
     them), and a crossing counts only where no ball has smaller power.
     """
-    lonely = isolated_samples(tri, len(vertices))
-    if weights is not None:
-        lonely = lonely[weights[lonely] == 0]
+    lonely = _lonely(tri, len(vertices), weights)
     if lonely.size == 0:
         return _none("isolated")
-    x, r, got = shoot_from(surface, vertices, lonely, tree)
-    if weights is not None and len(x):
-        balls = np.flatnonzero(weights > 0)
-        d = x[:, None, :] - vertices[balls][None, :, :]
-        power = np.einsum("ijk,ijk->ij", d, d) - weights[balls][None, :]
-        ok = power.min(axis=1) > r * r
-        x, r, got = x[ok], r[ok], got[ok]
+    tree = tree or cKDTree(vertices)
+    balls = None if weights is None else np.flatnonzero(weights > 0)
+    parts = [
+        _shots_in_cells(surface, vertices, lonely[i : i + SHOT_CHUNK], tree, weights, balls)
+        for i in range(0, len(lonely), SHOT_CHUNK)
+    ]
+    x, r, got = (np.concatenate(a) for a in zip(*parts, strict=True))
     stuck = vertices[np.setdiff1d(lonely, got)]
     return Violations("isolated", int(lonely.size), x, r, stuck)
+
+
+def isolated_count(vertices, tri, weights=None) -> Violations:
+    """T3's count alone, without shooting for a point of each cell (a run
+    stopped by its time limit): the samples, balls left out, with no
+    restricted triangle, all without a point."""
+    lonely = _lonely(tri, len(vertices), weights)
+    if lonely.size == 0:
+        return _none("isolated")
+    none = np.zeros((0, 3))
+    return Violations("isolated", int(lonely.size), none, np.zeros(0), vertices[lonely])
+
+
+def _lonely(tri, n_vertices: int, weights) -> np.ndarray:
+    """:func:`isolated_samples` that are not protecting balls."""
+    lonely = isolated_samples(tri, n_vertices)
+    return lonely if weights is None else lonely[weights[lonely] == 0]
+
+
+#: Samples shot from at a time by :func:`isolated_test`: each has 26 shots of
+#: 65 samples, so this bounds the test's memory (a run stopped by its budget
+#: can leave hundreds of thousands of isolated samples).
+SHOT_CHUNK = 4096
+#: Protecting balls compared with the crossings at a time.
+BALL_CHUNK = 1024
+
+
+def _shots_in_cells(surface, vertices, ids, tree, weights, balls):
+    """:func:`shoot_from` for ``ids``, without crossings where a protecting
+    ball has smaller power than the sample."""
+    x, r, got = shoot_from(surface, vertices, ids, tree)
+    if balls is not None and len(x) and len(balls):
+        power = np.full(len(x), np.inf)
+        for i in range(0, len(balls), BALL_CHUNK):
+            b = balls[i : i + BALL_CHUNK]
+            d = x[:, None, :] - vertices[b][None, :, :]
+            power = np.minimum(power, (np.einsum("ijk,ijk->ij", d, d) - weights[b]).min(axis=1))
+        ok = power > r * r
+        x, r, got = x[ok], r[ok], got[ok]
+    return x, r, got
 
 
 def shoot_from(surface, vertices, ids, tree=None):
