@@ -161,3 +161,12 @@ def test_drop_pockets_single_component_is_none():
     s = trimesh.creation.icosphere(subdivisions=1)
     zero = np.zeros(len(s.vertices), np.int64)
     assert drop_pockets(s.vertices, s.faces, lambda q: zero[: len(q)], _bound(9.0)) is None
+
+
+def test_drop_pockets_does_not_query_the_input_without_a_small_component():
+    v, f, _ = _sphere_and_tet(1.0, 0.01)
+
+    def never(q):
+        raise AssertionError("the input was queried")
+
+    assert drop_pockets(v, f, never, _bound(0.001)) is None

@@ -76,6 +76,9 @@ def drop_pockets(
     extent = (hi - lo).max(axis=1)
     centre = np.stack([np.bincount(comp, pts[:, a], count) for a in range(3)], axis=1)
     centre /= np.bincount(comp, minlength=count)[:, None]
+    small = extent < size(centre)
+    if not small.any():
+        return None  # no candidate: the input is not queried
     nfaces = np.bincount(face_label, minlength=count)
     # The output components on each input component, largest first.
     pairs = np.unique(np.stack([input_components(pts), comp], axis=1), axis=0)
@@ -84,7 +87,7 @@ def drop_pockets(
     first = np.r_[True, pairs[1:, 0] != pairs[:-1, 0]]
     main = np.zeros(count, bool)
     main[pairs[first, 1]] = True
-    pocket = ~main & (extent < size(centre))
+    pocket = ~main & small
     if not pocket.any():
         return None
     keep = ~pocket[face_label]
