@@ -72,7 +72,7 @@ def test_dropped_pockets_are_reported_and_the_rest_is_kept(pruned, unpruned):
     rep = pruned.report["pockets"]
     assert rep is not None and rep["dropped"] >= 1
     assert rep["largest"] < RADIUS_BOUND
-    assert "closed components smaller than the size bound" in pruned.report["statement"]
+    assert "output components smaller than the size bound" in pruned.report["statement"]
     assert not pruned.report["tbp_holds"]
     # Exactly the small components are gone; every large one is kept.
     before, after = _parts(unpruned), _parts(pruned)

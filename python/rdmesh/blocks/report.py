@@ -114,7 +114,7 @@ def summed(results: list[BlockResult]) -> dict[str, Any]:
         "spacing_floor": floors[0] if floors else None,
         "critical_points": None,  # the topological-ball method's, which blocks do not use
         "relabelled": None,  # pinches are relabelled on closed surfaces only, not on blocks
-        "pockets": None,
+        "pockets": None,  # volumes: their components are not known beforehand
         "unresolved_regions": [g for rep in reps for g in rep.get("unresolved_regions") or []],
         "violation_regions": [g for rep in reps for g in rep.get("violation_regions") or []],
     }

@@ -466,7 +466,7 @@ def _pockets(m: Mesher, faces: np.ndarray) -> Pockets | None:
     p = drop_pockets(m.vertices, faces, m.surface.input_components, bound)
     if p is not None:
         log.warning(
-            "closed components smaller than the size bound were dropped: %d (%d faces), on "
+            "output components smaller than the size bound were dropped: %d (%d faces), on "
             "input components that a larger one covers: the input's topology rules them "
             "out (%s)",
             len(p.centres), p.faces,

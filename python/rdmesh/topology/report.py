@@ -148,7 +148,7 @@ def topology_report(
     out because their dual edge crossed the surface an even number of times
     below the spacing floor: Voronoi-edge violations. ``relabelled`` says
     which faces differ from the restricted facets (pinched vertices made one
-    disk); ``pockets`` which closed components the input's known topology
+    disk); ``pockets`` which components the input's known topology
     ruled out. With either, the mesh's closedness is read from ``faces`` and
     the topological-ball property is not claimed (the faces are not the
     restricted Delaunay facets).
@@ -281,7 +281,7 @@ def _relabelled(r: Relabelled, link: float) -> dict[str, Any]:
 
 
 def _pockets(p: Pockets, link: float) -> dict[str, Any]:
-    """``report["pockets"]``: the closed components dropped because the
+    """``report["pockets"]``: the output components dropped because the
     input's topology rules them out."""
     return {
         "dropped": len(p.centres),
@@ -493,7 +493,7 @@ def _statement(rep: dict[str, Any]) -> str:
         pockets = rep.get("pockets")
         if pockets:
             why.append(
-                f"closed components smaller than the size bound were dropped: "
+                f"output components smaller than the size bound were dropped: "
                 f"{pockets['dropped']} (at most {pockets['largest']:.3g} across, "
                 f"{describe_regions(pockets['regions'])}), on input components that a larger "
                 "output component covers: the closed input's topology rules them out"
