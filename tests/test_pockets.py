@@ -14,6 +14,8 @@ import numpy as np
 import pytest
 import rdmesh
 import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rdmesh.refine import mesher
 from rdmesh.topology.complex import component_topology, is_closed_manifold
 from rdmesh.topology.pockets import drop_pockets
@@ -170,3 +172,44 @@ def test_drop_pockets_does_not_query_the_input_without_a_small_component():
         raise AssertionError("the input was queried")
 
     assert drop_pockets(v, f, never, _bound(0.001)) is None
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    sizes=st.lists(st.floats(0.001, 2.0), min_size=1, max_size=6),
+    labels=st.lists(st.integers(0, 2), min_size=7, max_size=7),
+    bound=st.floats(0.01, 3.0),
+)
+def test_drop_pockets_properties(sizes, labels, bound):
+    """A sphere and tetrahedra of random sizes on random input components:
+    what is dropped is below the bound and not the largest on any input
+    component, and every input component keeps an output component."""
+    s = trimesh.creation.icosphere(subdivisions=1)
+    verts, faces = [s.vertices], [s.faces]
+    tet = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    for i, size in enumerate(sizes):
+        faces.append(np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]) + sum(map(len, verts)))
+        verts.append(tet * size + [5.0 * (i + 1), 0.0, 0.0])
+    v, f = np.concatenate(verts), np.concatenate(faces)
+    comp_of_vertex = np.concatenate([np.full(len(x), i) for i, x in enumerate(verts)])
+    lab_of = np.asarray(labels)
+
+    def input_components(q):
+        # Component i lies at x in [5 i - 1, 5 i + 2]: its input component by place.
+        return lab_of[np.rint(q[:, 0] / 5.0).astype(np.int64)]
+
+    p = drop_pockets(v, f, input_components, _bound(bound))
+    face_comp = comp_of_vertex[f[:, 0]]
+    n_faces = np.bincount(face_comp)
+    extent = np.array([np.ptp(x, axis=0).max() for x in verts])
+    dropped = set() if p is None else set(np.unique(face_comp[~p.keep]).tolist())
+    for c in dropped:
+        assert extent[c] < bound
+        lab = labels[c]
+        rivals = [d for d in range(len(verts)) if labels[d] == lab]
+        best = max(rivals, key=lambda d: (n_faces[d], -d))
+        assert best != c
+    for lab in set(labels[: len(verts)]):
+        assert any(labels[d] == lab and d not in dropped for d in range(len(verts)))
+    if p is not None:
+        assert p.faces == int((~p.keep).sum()) and len(p.centres) == len(dropped)
