@@ -8,6 +8,8 @@ exact curves.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import rdmesh
@@ -419,3 +421,21 @@ def test_cli_finds_the_creases_of_an_expression_and_no_features_turns_it_off(tmp
     assert cli.main([*args, "-o", str(tmp_path / "b.ply"), "--no-features"]) == 0
     text = capsys.readouterr().out
     assert "creases found" not in text and "features:" not in text
+
+
+def test_newton_iterates_that_run_off_are_degenerate_not_an_overflow():
+    """A Gauss-Newton iterate whose gradients overflow (a random smooth
+    expression's crease search did this, 2026-12-04) reads as degenerate and
+    not converged, with no floating-point warning."""
+    from rdmesh.creases.tracing import min_norm_step, residual
+
+    g = np.array([[1.0, 2.0], [0.5, -0.5]])
+    J = np.array([[[1e200, 0.0, 0.0], [0.0, 1e200, 0.0]], [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        step, sine = min_norm_step(g, J)
+        r = residual(g, J)
+    assert np.array_equal(step[0], [0.0, 0.0, 0.0]) and sine[0] == 0.0
+    assert r[0] == np.inf
+    assert sine[1] > 0.99 and np.allclose(step[1], [-0.5, 0.25, 0.0])
+    assert r[1] == pytest.approx(0.5)

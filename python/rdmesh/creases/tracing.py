@@ -48,10 +48,14 @@ GROW = 1.5
 
 
 def _scaled(g: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each equation divided by its gradient's norm."""
-    n = np.linalg.norm(J, axis=2)
-    n = np.where(n > 0, n, 1.0)
-    return g / n, J / n[:, :, None]
+    """Each equation divided by its gradient's norm; NaN where that norm is
+    not finite (a Newton iterate that ran off to huge values), so that such a
+    point reads as degenerate and not converged."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        n = np.sqrt(np.einsum("ijk,ijk->ij", J, J))
+    n = np.where(np.isfinite(n), np.where(n > 0, n, 1.0), np.nan)
+    with np.errstate(invalid="ignore"):
+        return g / n, J / n[:, :, None]
 
 
 def min_norm_step(g: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
