@@ -21,7 +21,7 @@ import numpy as np
 from .. import core
 from .._errors import BudgetExceeded, Interrupted, RefinementStalled
 from .._regions import describe_regions, regions
-from .._tol import REGION_LINK, TOPOLOGY_FLOOR
+from .._tol import REGION_LINK
 from .._vectors import row_index
 from ..creases.search import CreaseSearch
 from ..features.check import check_features, repair_sites
@@ -35,7 +35,7 @@ from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.defects import ComplexDefects
 from ..topology.loops import LoopMemo
-from ..topology.pockets import Pockets, drop_pockets
+from ..topology.pockets import UNBOUNDED_SIZE, Pockets, drop_pockets
 from ..topology.proven_cells import ProofMemo
 from ..topology.relabel import Relabelled, relabel_pinches
 from ..topology.snapshot import confirm_defects
@@ -456,12 +456,10 @@ def _pockets(m: Mesher, faces: np.ndarray) -> Pockets | None:
     bounding radius), on input components that a larger output component covers."""
     if m.clipped or not getattr(m.surface, "topology_known", False):
         return None
-    size = m.criteria.sizing
-    r = m.surface.radius
 
     def bound(p: np.ndarray) -> np.ndarray:
-        s = size(p)
-        return np.full(len(p), TOPOLOGY_FLOOR * r) if s is None else s
+        s = m.criteria.sizing(p)
+        return np.full(len(p), UNBOUNDED_SIZE * m.surface.radius) if s is None else s
 
     p = drop_pockets(m.vertices, faces, m.surface.input_components, bound)
     if p is not None:

@@ -9,6 +9,7 @@ mesh's report (``report["input"]``).
 from __future__ import annotations
 
 import logging
+from functools import cached_property
 
 import numpy as np
 
@@ -108,10 +109,12 @@ class MeshReport:
     def input_components(self, points: np.ndarray) -> np.ndarray:
         """(N,) the input component (faces joined through shared vertices) of
         the face closest to each of ``points``."""
-        if getattr(self, "_face_component", None) is None:
-            self._face_component = components(self.faces, len(self.vertices))[1]
         _, face = self.closest_points(points)
         return self._face_component[face]
+
+    @cached_property
+    def _face_component(self) -> np.ndarray:
+        return components(self.faces, len(self.vertices))[1]
 
     def unit_gradient_at(self, points: np.ndarray) -> np.ndarray:
         """(N,) bool: points where ``f``'s gradient, where it has one, is a unit

@@ -22,6 +22,10 @@ import numpy as np
 
 from .._mesh_components import labelled_components
 
+#: Without a size bound, components smaller than this times the bounding
+#: radius are candidates.
+UNBOUNDED_SIZE = 0.01
+
 
 @dataclass
 class Pockets:
