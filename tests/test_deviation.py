@@ -11,7 +11,14 @@ import trimesh
 from meshcheck import triangle_angles_deg
 from rdmesh.core import MeshDistance
 from rdmesh.refine import methods
-from rdmesh.refine.deviation import DeviationStage, _around, deviation_stage
+from rdmesh.refine.deviation import (
+    BUDGET,
+    CLEARANCE,
+    DeviationStage,
+    _around,
+    deviation_stage,
+)
+from scipy.spatial import cKDTree
 
 RADIUS, DISTANCE = 0.25, 0.02
 
@@ -108,16 +115,62 @@ def test_only_closed_meshes_with_a_bound_are_checked():
     assert deviation_stage(opened, DISTANCE) is None
 
 
-def test_inputs_with_folds_are_not_checked():
-    """Noise that folds faces onto each other: following it to the bound
-    would refine into the folds, below the spacing floor."""
+def test_inputs_with_folds_are_not_checked_when_complete():
+    """Noise that folds faces onto each other: its points beyond the bound are
+    spikes, and refining around them would end below the spacing floor."""
     from test_remesh import variant
 
     noisy = rdmesh.MeshSurface(variant("two_spheres", "noisy"))
     assert noisy.sign_method == "side" and noisy.folds > 0
-    assert deviation_stage(noisy, DISTANCE) is None
+    stage = deviation_stage(noisy, DISTANCE)
+    assert len(stage.folds) == 3 * noisy.folds == 3 * len(noisy.fold_edges)
+    rb = noisy.radius / 20
+    mesh = rdmesh.mesh_surface(noisy, radius_bound=rb, distance_bound=rb / 10)
+    assert mesh.complete and mesh.stats["distance_check"] is None
+    assert "distance" not in mesh.stats["inserted"]
     clean = rdmesh.MeshSurface(variant("two_spheres", "plain"))
-    assert clean.folds == 0 and deviation_stage(clean, DISTANCE) is not None
+    assert clean.folds == 0 and len(deviation_stage(clean, DISTANCE).folds) == 0
+
+
+def touching_spheres() -> rdmesh.MeshSurface:
+    """Two icospheres 1e-4 apart as one closed mesh: the gap is below the
+    spacing floor, so points are refused there and the run ends incomplete."""
+    a = trimesh.creation.icosphere(subdivisions=2)
+    b = a.copy()
+    b.apply_translation([2 + 1e-4, 0, 0])
+    both = trimesh.util.concatenate([a, b])
+    return rdmesh.MeshSurface((both.vertices, both.faces), feature_angle=None)
+
+
+def test_an_incomplete_run_is_checked_on_a_budget(monkeypatch):
+    """Points refused below the floor: the check proposes once, the farthest
+    points up to the budget, none near a refused point, and narrows the
+    distance all the same."""
+    surface = touching_spheres()
+    seen = []
+    candidates = DeviationStage.candidates
+
+    def spy(stage, snap):
+        cand = candidates(stage, snap)
+        seen.append((len(snap.vertices), cand.centres, stage.unresolved.copy(), stage.bound))
+        return cand
+
+    monkeypatch.setattr(DeviationStage, "candidates", spy)
+    mesh = rdmesh.mesh_surface(surface, radius_bound=0.2, distance_bound=0.02)
+    assert not mesh.complete and mesh.stats["unresolved"] > 0
+    stats = mesh.stats["distance_check"]
+    assert stats["budgeted"] and stats["checks"] == len(seen) == 2
+    n, points, refused, bound = seen[0]
+    assert len(points) == int(BUDGET * n) > 0  # the budget binds: many more are beyond
+    assert stats["left"] > 10 * len(points)
+    assert len(refused) and cKDTree(refused).query(points)[0].min() > CLEARANCE * bound
+    assert len(seen[1][1]) == 0  # the second check only measures
+    assert 0 < mesh.stats["inserted"]["distance"] <= len(points)
+
+    monkeypatch.setattr(methods, "deviation_stage", lambda *a, **k: None)
+    unchecked = rdmesh.mesh_surface(surface, radius_bound=0.2, distance_bound=0.02)
+    assert unchecked.stats["distance_check"] is None
+    assert deviations(mesh, surface)[0].max() < deviations(unchecked, surface)[0].max()
 
 
 def test_no_point_is_proposed_in_a_protecting_ball():

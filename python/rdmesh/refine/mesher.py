@@ -328,11 +328,12 @@ def _fine_stats(pipeline: FacetPipeline) -> dict | None:
 
 def _distance_stats(plan: Plan) -> dict | None:
     """What ``stats["distance_check"]`` says of the check against a closed
-    input mesh (:mod:`rdmesh.refine.deviation`), None without one."""
+    input mesh (:mod:`rdmesh.refine.deviation`), None without one or when
+    nothing was checked."""
     for phase in plan.phases:
         for stage in phase:
             if isinstance(stage, DeviationStage):
-                return stage.stats()
+                return stage.stats() if stage.checks else None
     return None
 
 

@@ -78,6 +78,8 @@ class Phases:
         the others go to ``unresolved``."""
         if getattr(stage, "only_if_clean", False) and unresolved:
             return None
+        if hasattr(stage, "unresolved"):  # the distance check keeps clear of them
+            stage.unresolved = np.concatenate(unresolved) if unresolved else np.zeros((0, 3))
         cand = stage.candidates(snap)
         if len(cand.stuck):
             unresolved.append(cand.stuck)

@@ -4,7 +4,7 @@ triangle mesh, and what can be told about it before meshing.
 A mesh is read as ``(vertices, faces)`` (:func:`as_arrays`), its equal vertices
 merged and degenerate faces dropped (:func:`clean`), and oriented so that its
 signed volume is positive (:func:`oriented_mesh`). Then: its bounding sphere,
-its folds (:func:`count_folds`), whether the C++ side test applies
+its folds (:func:`fold_edges`), whether the C++ side test applies
 (:func:`is_closed_oriented`), how ambiguous the winding number is next to it
 (:func:`winding_ambiguity`), and which way its face normals point
 (:func:`orient_normals`).
@@ -146,9 +146,9 @@ def bounding_sphere(v: np.ndarray) -> tuple[np.ndarray, float]:
     return centre, SPHERE_MARGIN * max(extent, 1e-12 * (1 + float(np.abs(centre).max())))
 
 
-def count_folds(f: np.ndarray, normals: np.ndarray) -> int:
+def fold_edges(f: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """Edges of exactly two faces whose normals differ by more than FOLD_ANGLE,
-    with a warning if there are any."""
+    ``(k, 2)`` vertex ids, with a warning if there are any."""
     edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
     face = np.tile(np.arange(len(f)), 3)
     _, inverse, counts = np.unique(edges, axis=0, return_inverse=True, return_counts=True)
@@ -157,7 +157,9 @@ def count_folds(f: np.ndarray, normals: np.ndarray) -> int:
     order = np.argsort(inverse[pair], kind="stable")
     faces = face[pair][order].reshape(-1, 2)
     cos = np.einsum("ij,ij->i", normals[faces[:, 0]], normals[faces[:, 1]])
-    folds = int(np.count_nonzero(cos < np.cos(np.radians(FOLD_ANGLE))))
+    ids = np.flatnonzero(pair)[order][::2]  # one row of each paired edge
+    folded = edges[ids[cos < np.cos(np.radians(FOLD_ANGLE))]]
+    folds = len(folded)
     if folds:
         log.warning(
             "MeshSurface: %d folds (neighbouring faces at more than %g degrees): "
@@ -166,7 +168,7 @@ def count_folds(f: np.ndarray, normals: np.ndarray) -> int:
             folds,
             FOLD_ANGLE,
         )
-    return folds
+    return folded
 
 
 def is_closed_oriented(f: np.ndarray) -> bool:

@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..features.sharp_edges import sharp_curves
-from ._mesh_input import bounding_sphere, count_folds, oriented_mesh
+from ._mesh_input import bounding_sphere, fold_edges, oriented_mesh
 from ._mesh_queries import MeshQueries
 from ._mesh_report import MeshReport
 from .oracle import ImplicitSurface
@@ -61,9 +61,9 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     ambiguous_share : float
         Share of the area next to which the winding number is far from a
         whole number (0 for closed meshes).
-    folds : int
-        Edges whose two faces' normals differ by more than 150 degrees
-        (razor-thin wedges; see Notes). Nonzero counts are logged as a warning.
+    folds, fold_edges : int, (k, 2) int64
+        How many edges have two faces whose normals differ by more than 150
+        degrees (razor-thin wedges; see Notes; logged as a warning), and which.
     sharp_edges : (E, 2) int64
         The sharp edges kept (vertex index pairs; short dangling chains are
         left out as noise).
@@ -141,12 +141,11 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     every vertex lies on the input (to rounding, or the root tolerance where
     sampled), and every output triangle lies in a surface Delaunay ball
     centred on the input, so it is within the size bound of the input.
-    **Both ways** (closed, no folds, nothing unresolved): the input's vertices and
-    creased edges and the output's edge midpoints are measured against the
-    other surface, and input points beyond the distance bound inserted in
-    two passes (``stats["distance_check"]``). Keeping the input's topology is sampled, not
-    proven: it holds when the size bound is below the feature size of the
-    shape the mesh approximates (scans, organic shapes). Sharp creases
+    **Both ways** (closed): the input's vertices and creased edges and the output's edge
+    midpoints are measured against the other surface, and input points beyond the distance
+    bound inserted (``stats["distance_check"]``; :mod:`rdmesh.refine.deviation`). Keeping
+    the input's topology is sampled, not proven: it holds when the size bound is below the
+    feature size of the shape the mesh approximates (scans, organic shapes). Sharp creases
     (CAD models) are kept through ``feature_angle``: each sharp-edge chain is
     covered by protecting balls centred on the input's own edges (the output
     has a vertex at every corner and edges along every chain;
@@ -163,7 +162,8 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
         self.vertices, self.faces, norms, self._normals = oriented_mesh(mesh)
         centre, radius = bounding_sphere(self.vertices)
         self._start_queries(radius)
-        self.folds = count_folds(self.faces, self._normals)
+        self.fold_edges = fold_edges(self.faces, self._normals)
+        self.folds = len(self.fold_edges)
         self._set_sign(norms)
         self._find_self_intersections()
         self.feature_angle, self.sharp_edges, self.sharp_curves = sharp_curves(
