@@ -498,6 +498,9 @@ def main(argv: list[str] | None = None) -> int:
         "load_start": load(),
         "cpu_pressure_start": pressure(),
     }
+    suffix = "-quick" if args.quick else ""
+    path = Path(args.record or HERE / "results" / f"batch-{record['date']}{suffix}.json")
+    path.parent.mkdir(parents=True, exist_ok=True)  # before minutes of work, not after
     print(f"batch benchmark, {record['date']}, commit {commit}, load {record['load_start']}")
     good = good_cases(work / "inputs", args.quick)
     bad_file = bad_file_cases(work / "inputs")
@@ -527,8 +530,6 @@ def main(argv: list[str] | None = None) -> int:
     wrong = record["parallel"]["wrong"] + record["isolation"]["wrong"] + record["cli"]["wrong"]
     if wrong:
         print("WRONG:", *wrong, sep="\n  ")
-    suffix = "-quick" if args.quick else ""
-    path = Path(args.record or HERE / "results" / f"batch-{record['date']}{suffix}.json")
     path.write_text(json.dumps(record, indent=1, default=str) + "\n", encoding="utf-8")
     print(f"record: {path}")
     return 0 if not wrong and len(record["isolation"]["lost"]) <= 1 else 1

@@ -449,6 +449,8 @@ def main(argv=None) -> int:
         ap.error("--repeat must be at least 1")
     if args.reference_factor < 1:
         ap.error("--reference-factor must be at least 1")
+    if args.out:
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)  # before the runs, not after
     sizes = (0.01,) if args.quick else (0.01, 0.003)
     if args.sizes:
         sizes = tuple(float(x) for x in args.sizes.split(","))
