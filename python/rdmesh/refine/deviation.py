@@ -102,7 +102,7 @@ class DeviationStage:
     #: Points refused this round (set by :class:`~rdmesh.refine.phases.Phases`),
     #: the ends and midpoints of the input's folds: see :data:`BUDGET`.
     unresolved: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
-    folds: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
+    folds: np.ndarray = field(init=False, repr=False)
     budgeted: bool = False
     #: What the checks found (``SurfaceMesh.stats["distance_check"]``).
     checks: int = 0
@@ -121,14 +121,14 @@ class DeviationStage:
     _near: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        self._probes = input_probes(
-            self.surface.vertices, self.surface.faces, EDGE_SPACING * self.bound
-        )
+        v, f = self.surface.vertices, self.surface.faces
+        self._probes = input_probes(v, f, EDGE_SPACING * self.bound)
         n = len(self._probes)
         # Input points next to a protecting ball are never proposed.
         self._free = np.ones(n, bool)
         if self.balls is not None and len(self.balls):
             self._free = ~self.balls.inside(self._probes, BALL_CLEARANCE)
+        self.folds = _ends_and_midpoints(v[self.surface.fold_edges])
         self._ok_edges = np.zeros((0, 2), np.int64)
         self._d_in = np.full(n, np.inf)
         self._near = np.full((n, 3), -1, np.int64)
@@ -270,6 +270,11 @@ def _around(V: np.ndarray, tri: np.ndarray, tree, points: np.ndarray, upper: np.
     return tri[near[tri].any(axis=1)]
 
 
+def _ends_and_midpoints(ends: np.ndarray) -> np.ndarray:
+    """``(3k, 3)``: the ends of ``(k, 2, 3)`` segments, then their midpoints."""
+    return np.concatenate([ends[:, 0], ends[:, 1], ends.mean(axis=1)])
+
+
 def _in_budget(points, dist, keep, blocked, bound: float, n: int) -> np.ndarray:
     """``keep`` without the ``points`` within :data:`CLEARANCE` ``bound`` of
     ``blocked``, then only the farthest (by ``dist``) :data:`BUDGET` ``n``."""
@@ -293,7 +298,4 @@ def deviation_stage(surface, distance_bound: float | None, balls=None) -> Deviat
     (an open mesh's hole patches are not on its faces)."""
     if distance_bound is None or getattr(surface, "sign_method", None) != "side":
         return None
-    stage = DeviationStage(surface, float(distance_bound), balls)
-    ends = surface.vertices[surface.fold_edges]
-    stage.folds = np.concatenate([ends[:, 0], ends[:, 1], ends.mean(axis=1)])
-    return stage
+    return DeviationStage(surface, float(distance_bound), balls)

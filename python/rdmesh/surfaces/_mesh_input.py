@@ -20,6 +20,7 @@ import numpy as np
 
 from .._errors import MeshInputError
 from ..core import MeshDistance
+from ..features.sharp_edges import sharp_edges
 
 log = logging.getLogger("rdmesh")
 
@@ -147,18 +148,9 @@ def bounding_sphere(v: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def fold_edges(f: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """Edges of exactly two faces whose normals differ by more than FOLD_ANGLE,
+    """Edges of exactly two faces whose normals differ by FOLD_ANGLE or more,
     ``(k, 2)`` vertex ids, with a warning if there are any."""
-    edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    face = np.tile(np.arange(len(f)), 3)
-    _, inverse, counts = np.unique(edges, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.reshape(-1)
-    pair = counts[inverse] == 2
-    order = np.argsort(inverse[pair], kind="stable")
-    faces = face[pair][order].reshape(-1, 2)
-    cos = np.einsum("ij,ij->i", normals[faces[:, 0]], normals[faces[:, 1]])
-    ids = np.flatnonzero(pair)[order][::2]  # one row of each paired edge
-    folded = edges[ids[cos < np.cos(np.radians(FOLD_ANGLE))]]
+    folded = sharp_edges(f, normals, FOLD_ANGLE)
     folds = len(folded)
     if folds:
         log.warning(

@@ -145,7 +145,7 @@ def isolated_test(surface, vertices, tri, tree=None, weights=None) -> Violations
     lonely = _lonely(tri, len(vertices), weights)
     if lonely.size == 0:
         return _none("isolated")
-    tree = tree or cKDTree(vertices)
+    tree = cKDTree(vertices) if tree is None else tree
     balls = None if weights is None else np.flatnonzero(weights > 0)
     parts = [
         _shots_in_cells(surface, vertices, lonely[i : i + SHOT_CHUNK], tree, weights, balls)
