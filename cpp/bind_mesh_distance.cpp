@@ -13,15 +13,20 @@ namespace rdmesh::bind {
 
 void register_mesh_distance(py::module_& m) {
   py::class_<MeshDistance>(m, "MeshDistance")
-      .def(py::init([](const InArray& vertices, const IdArray& faces, bool side) {
+      .def(py::init([](const InArray& vertices, const IdArray& faces, bool side, bool winding) {
              const std::vector<double> v = rows3(vertices, "vertices");
              if (faces.ndim() != 2 || faces.shape(1) != 3)
                throw std::invalid_argument("faces must have shape (m, 3)");
              const std::vector<std::int64_t> f = copy_of<std::int64_t>(faces);
              py::gil_scoped_release release;
-             return new MeshDistance(v.data(), v.size() / 3, f.data(), f.size() / 3, side);
+             return new MeshDistance(v.data(), v.size() / 3, f.data(), f.size() / 3, side,
+                                     winding);
            }),
-           py::arg("vertices"), py::arg("faces"), py::arg("side") = true)
+           py::arg("vertices"), py::arg("faces"), py::arg("side") = true,
+           py::arg("winding") = true,
+           "A triangle mesh's AABB tree, with a side oracle when ``side`` (and "
+           "the mesh allows one) and the winding-number hierarchy when ``winding`` "
+           "(winding_number raises RuntimeError without it).")
       .def(
           "query",
           [](const MeshDistance& self, const InArray& points) {

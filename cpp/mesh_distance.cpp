@@ -324,7 +324,7 @@ struct MeshDistance::Impl {
 };
 
 MeshDistance::MeshDistance(const double* vertices, std::size_t n, const std::int64_t* faces,
-                           std::size_t m, bool want_side)
+                           std::size_t m, bool want_side, bool want_winding)
     : impl_(std::make_unique<Impl>()) {
   Impl& s = *impl_;
   if (n == 0) throw std::invalid_argument("the mesh has no vertices");
@@ -361,10 +361,12 @@ MeshDistance::MeshDistance(const double* vertices, std::size_t n, const std::int
   // One query now, so that nothing is left to build lazily by a query.
   (void)s.tree.closest_point(s.soup.front().vertex(0));
 
-  s.order.resize(m);
-  std::iota(s.order.begin(), s.order.end(), 0);
-  s.nodes.reserve(2 * (m / kLeafSize + 1));
-  s.build(0, static_cast<std::int32_t>(m), centroid, area);
+  if (want_winding) {
+    s.order.resize(m);
+    std::iota(s.order.begin(), s.order.end(), 0);
+    s.nodes.reserve(2 * (m / kLeafSize + 1));
+    s.build(0, static_cast<std::int32_t>(m), centroid, area);
+  }
 
   if (want_side) s.try_side();
   if (s.side) (void)(*s.side)(s.soup.front().vertex(0));
@@ -419,6 +421,8 @@ void MeshDistance::side(const double* p, std::size_t k, std::int8_t* side) const
 }
 
 void MeshDistance::winding_number(const double* p, std::size_t k, double* w, double beta) const {
+  if (impl_->nodes.empty())
+    throw std::logic_error("this MeshDistance was built without its winding-number hierarchy");
   if (!(beta > 1.0) || !std::isfinite(beta))
     throw std::invalid_argument("beta must be finite and greater than 1");
   check_finite(p, k);

@@ -225,3 +225,50 @@ def test_around_keeps_every_facet_that_can_hold_the_nearest_point():
     np.testing.assert_array_equal(MeshDistance(V, far, side=False).query(points)[0], exact)
     unknown = np.r_[exact[:-1], np.inf]
     assert len(_around(V, tri, tree, points, unknown)) == len(tri)
+
+
+@pytest.mark.parametrize("bits", [63, 6])
+def test_row_sets_agree_with_row_index(monkeypatch, bits):
+    """Membership by sorted int64 keys; with ids too large for the key
+    (``KEY_BITS`` lowered to force it), by :func:`row_index` on the rows."""
+    from rdmesh._vectors import row_index
+    from rdmesh.refine import deviation
+
+    monkeypatch.setattr(deviation, "KEY_BITS", bits)
+    rng = np.random.default_rng(1)
+    for width in (2, 3):
+        table = np.sort(rng.integers(0, 40, (300, width)), axis=1)
+        rows = np.sort(rng.integers(0, 40, (500, width)), axis=1)
+        keyed = deviation.row_keys(rows)
+        assert (keyed is None) == (bits == 6)
+        rs = deviation.RowSet(table[:200])
+        np.testing.assert_array_equal(rs.contains(rows), row_index(rows, table[:200]) >= 0)
+        rs.add(table[200:])
+        np.testing.assert_array_equal(rs.contains(rows), row_index(rows, table) >= 0)
+        assert rs.contains(table).all()
+    assert not deviation.RowSet(np.zeros((0, 3), np.int64)).contains(rows).any()
+
+
+def test_row_keys_keep_the_rows_order():
+    from rdmesh.refine.deviation import row_keys
+
+    rows = np.array([[0, 5, 9], [0, 6, 0], [1, 0, 0], [2**21 - 1, 2**21 - 1, 2**21 - 1]])
+    keys = row_keys(rows)
+    assert (np.diff(keys) > 0).all()
+    assert row_keys(np.array([[2**21, 0, 0]])) is None
+    assert row_keys(np.array([[-1, 0]])) is None
+
+
+def test_mesh_distance_without_its_winding_hierarchy():
+    """The deviation check builds the output's tree without the winding
+    hierarchy: the same distances, and winding numbers refused, not garbage."""
+    ico = trimesh.creation.icosphere(subdivisions=2)
+    v, f = np.asarray(ico.vertices), np.asarray(ico.faces, np.int64)
+    p = np.random.default_rng(2).normal(size=(50, 3))
+    full = MeshDistance(v, f, side=False)
+    bare = MeshDistance(v, f, side=False, winding=False)
+    for a, b in zip(full.query(p), bare.query(p), strict=True):
+        np.testing.assert_array_equal(a, b)
+    with pytest.raises(RuntimeError, match="winding"):
+        bare.winding_number(p)
+    assert np.isfinite(full.winding_number(p)).all()

@@ -141,7 +141,11 @@ def usable_cores() -> int: ...
 
 class MeshDistance:
     def __init__(
-        self, vertices: npt.ArrayLike, faces: npt.ArrayLike, side: bool = True
+        self,
+        vertices: npt.ArrayLike,
+        faces: npt.ArrayLike,
+        side: bool = True,
+        winding: bool = True,
     ) -> None: ...
     def query(
         self, points: npt.ArrayLike

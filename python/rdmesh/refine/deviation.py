@@ -76,6 +76,9 @@ BUDGET = 0.005
 #: relaxed (as in Mesh_3): 2 radii let 21-degree angles through on the
 #: genus-2 benchmark solid, 4 did not.
 BALL_CLEARANCE = 4.0
+#: Bits of an int64 key shared by a row's columns (:func:`row_keys`): 21 per
+#: vertex id of a facet, so up to 2,097,152 output vertices.
+KEY_BITS = 63
 
 
 @dataclass
@@ -113,10 +116,10 @@ class DeviationStage:
     _probes: np.ndarray = field(init=False, repr=False)
     _free: np.ndarray = field(init=False, repr=False)
     #: Output edges (sorted vertex ids) found within the bound.
-    _ok_edges: np.ndarray = field(init=False, repr=False)
+    _ok_edges: RowSet = field(init=False, repr=False)
     #: The output's facets at the last check; each input vertex's distance
     #: to it and its nearest facet there.
-    _tri: np.ndarray | None = field(default=None, init=False, repr=False)
+    _tri: RowSet | None = field(default=None, init=False, repr=False)
     _d_in: np.ndarray = field(init=False, repr=False)
     _near: np.ndarray = field(init=False, repr=False)
 
@@ -129,7 +132,7 @@ class DeviationStage:
         if self.balls is not None and len(self.balls):
             self._free = ~self.balls.inside(self._probes, BALL_CLEARANCE)
         self.folds = _ends_and_midpoints(v[self.surface.fold_edges])
-        self._ok_edges = np.zeros((0, 2), np.int64)
+        self._ok_edges = RowSet(np.zeros((0, 2), np.int64))
         self._d_in = np.full(n, np.inf)
         self._near = np.full((n, 3), -1, np.int64)
 
@@ -178,13 +181,13 @@ class DeviationStage:
     def _output_to_input(self, V: np.ndarray, edges: np.ndarray):
         """Distances to the input from the midpoints of the output's ``edges``
         not yet found within the bound, and the input's closest points."""
-        edges = edges[row_index(edges, self._ok_edges) < 0]
+        edges = edges[~self._ok_edges.contains(edges)]
         if len(edges) == 0:
             return np.zeros(0), np.zeros((0, 3))
         probes = 0.5 * (V[edges[:, 0]] + V[edges[:, 1]])
         near, _ = self.surface.closest_points(probes)
         d = np.linalg.norm(probes - near, axis=1)
-        self._ok_edges = np.concatenate([self._ok_edges, edges[d <= self.bound]])
+        self._ok_edges.add(edges[d <= self.bound])
         return d, near
 
     def _input_to_output(self, V: np.ndarray, tri: np.ndarray, tree) -> np.ndarray:
@@ -192,16 +195,16 @@ class DeviationStage:
         its nearest facet is still there and it was within the bound);
         ``tree`` is a k-d tree of ``V``."""
         again = np.ones(len(self._d_in), bool)
-        local = tri
+        local, now = tri, RowSet(tri)
         if self._tri is not None:
-            again = (row_index(self._near, tri) < 0) | ((self._d_in > self.bound) & self._free)
+            again = ~now.contains(self._near) | ((self._d_in > self.bound) & self._free)
             # The nearest facet of a vertex whose own is gone is most likely
             # among the facets that touch the new ones' vertices.
-            fresh = tri[row_index(tri, self._tri) < 0]
+            fresh = tri[~self._tri.contains(tri)]
             touched = np.zeros(len(V), bool)
             touched[fresh.ravel()] = True
             local = tri[touched[tri].any(axis=1)]
-        self._tri = tri
+        self._tri = now
         idx = np.flatnonzero(again)
         upper = np.full(len(idx), np.inf)
         if len(idx) and len(local) < len(tri):
@@ -218,7 +221,8 @@ class DeviationStage:
         if len(tri) == 0:
             self._d_in[idx], self._near[idx] = np.inf, -1
             return
-        d, _, face, _ = core.MeshDistance(V, tri, side=False).query(self._probes[idx])
+        output = core.MeshDistance(V, tri, side=False, winding=False)
+        d, _, face, _ = output.query(self._probes[idx])
         self._d_in[idx], self._near[idx] = d, tri[face]
 
     def stats(self) -> dict:
@@ -268,6 +272,47 @@ def _around(V: np.ndarray, tri: np.ndarray, tree, points: np.ndarray, upper: np.
     near = np.zeros(len(V), bool)
     near[np.fromiter(chain.from_iterable(found), np.int64)] = True
     return tri[near[tri].any(axis=1)]
+
+
+class RowSet:
+    """Rows of vertex ids (each row sorted), for membership tests: one int64
+    key per row, kept sorted, where the ids fit (:func:`row_keys`); the rows
+    themselves and :func:`~rdmesh._vectors.row_index` where they do not."""
+
+    def __init__(self, rows: np.ndarray) -> None:
+        self.rows = np.asarray(rows, np.int64)
+        self.keys = row_keys(self.rows)
+        if self.keys is not None:
+            self.keys.sort()
+
+    def contains(self, rows: np.ndarray) -> np.ndarray:
+        """Whether each of ``rows`` is in the set."""
+        keys = row_keys(rows)
+        if keys is None or self.keys is None:
+            return row_index(rows, self.rows) >= 0
+        if len(self.keys) == 0:
+            return np.zeros(len(keys), bool)
+        at = np.minimum(np.searchsorted(self.keys, keys), len(self.keys) - 1)
+        return self.keys[at] == keys
+
+    def add(self, rows: np.ndarray) -> None:
+        """Add ``rows`` (not already in the set)."""
+        self.__init__(np.concatenate([self.rows, rows]))
+
+
+def row_keys(rows: np.ndarray) -> np.ndarray | None:
+    """One int64 key per row of non-negative integers, in the rows'
+    lexicographic order (:data:`KEY_BITS` bits per column); None where an
+    entry does not fit."""
+    rows = np.asarray(rows, np.int64)
+    bits = KEY_BITS // max(rows.shape[1], 1)
+    if len(rows) and (rows.min() < 0 or rows.max() >> bits):
+        return None
+    keys = rows[:, 0].copy()
+    for j in range(1, rows.shape[1]):
+        keys <<= bits
+        keys |= rows[:, j]
+    return keys
 
 
 def _ends_and_midpoints(ends: np.ndarray) -> np.ndarray:
