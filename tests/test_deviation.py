@@ -231,26 +231,26 @@ def test_around_keeps_every_facet_that_can_hold_the_nearest_point():
 def test_row_sets_agree_with_row_index(monkeypatch, bits):
     """Membership by sorted int64 keys; with ids too large for the key
     (``KEY_BITS`` lowered to force it), by :func:`row_index` on the rows."""
+    from rdmesh import _vectors
     from rdmesh._vectors import row_index
-    from rdmesh.refine import deviation
 
-    monkeypatch.setattr(deviation, "KEY_BITS", bits)
+    monkeypatch.setattr(_vectors, "KEY_BITS", bits)
     rng = np.random.default_rng(1)
     for width in (2, 3):
         table = np.sort(rng.integers(0, 40, (300, width)), axis=1)
         rows = np.sort(rng.integers(0, 40, (500, width)), axis=1)
-        keyed = deviation.row_keys(rows)
+        keyed = _vectors.row_keys(rows)
         assert (keyed is None) == (bits == 6)
-        rs = deviation.RowSet(table[:200])
+        rs = _vectors.RowSet(table[:200])
         np.testing.assert_array_equal(rs.contains(rows), row_index(rows, table[:200]) >= 0)
         rs.add(table[200:])
         np.testing.assert_array_equal(rs.contains(rows), row_index(rows, table) >= 0)
         assert rs.contains(table).all()
-    assert not deviation.RowSet(np.zeros((0, 3), np.int64)).contains(rows).any()
+    assert not _vectors.RowSet(np.zeros((0, 3), np.int64)).contains(rows).any()
 
 
 def test_row_keys_keep_the_rows_order():
-    from rdmesh.refine.deviation import row_keys
+    from rdmesh._vectors import row_keys
 
     rows = np.array([[0, 5, 9], [0, 6, 0], [1, 0, 0], [2**21 - 1, 2**21 - 1, 2**21 - 1]])
     keys = row_keys(rows)

@@ -55,3 +55,49 @@ def row_index(rows: np.ndarray, table: np.ndarray) -> np.ndarray:
     at = np.searchsorted(sorted_keys, rk, side="right") - 1
     found = (at >= 0) & (sorted_keys[np.maximum(at, 0)] == rk)
     return np.where(found, order[np.maximum(at, 0)], -1)
+
+
+#: Bits of an int64 key shared by a row's columns (:func:`row_keys`): 21 per
+#: id in rows of 3 (up to 2,097,152 vertices), 31 in rows of 2.
+KEY_BITS = 63
+
+
+class RowSet:
+    """Rows of vertex ids (each row sorted), for membership tests: one int64
+    key per row, kept sorted, where the ids fit (:func:`row_keys`); the rows
+    themselves and :func:`row_index` where they do not."""
+
+    def __init__(self, rows: np.ndarray) -> None:
+        self.rows = np.asarray(rows, np.int64)
+        self.keys = row_keys(self.rows)
+        if self.keys is not None:
+            self.keys.sort()
+
+    def contains(self, rows: np.ndarray) -> np.ndarray:
+        """Whether each of ``rows`` is in the set."""
+        keys = row_keys(rows)
+        if keys is None or self.keys is None:
+            return row_index(rows, self.rows) >= 0
+        if len(self.keys) == 0:
+            return np.zeros(len(keys), bool)
+        at = np.minimum(np.searchsorted(self.keys, keys), len(self.keys) - 1)
+        return self.keys[at] == keys
+
+    def add(self, rows: np.ndarray) -> None:
+        """Add ``rows`` (not already in the set)."""
+        self.__init__(np.concatenate([self.rows, rows]))  # the keys sorted again
+
+
+def row_keys(rows: np.ndarray) -> np.ndarray | None:
+    """One int64 key per row of non-negative integers, in the rows'
+    lexicographic order (:data:`KEY_BITS` bits per column); None where an
+    entry does not fit."""
+    rows = np.asarray(rows, np.int64)
+    bits = KEY_BITS // max(rows.shape[1], 1)
+    if len(rows) and (rows.min() < 0 or rows.max() >> bits):
+        return None
+    keys = rows[:, 0].copy()
+    for j in range(1, rows.shape[1]):
+        keys <<= bits
+        keys |= rows[:, j]
+    return keys

@@ -33,7 +33,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .. import core
-from .._vectors import row_index, unit_rows
+from .._vectors import RowSet, unit_rows
 from ..features.sharp_edges import sharp_edges
 from ..topology import Snapshot
 from .stages import Candidates
@@ -76,9 +76,6 @@ BUDGET = 0.005
 #: relaxed (as in Mesh_3): 2 radii let 21-degree angles through on the
 #: genus-2 benchmark solid, 4 did not.
 BALL_CLEARANCE = 4.0
-#: Bits of an int64 key shared by a row's columns (:func:`row_keys`): 21 per
-#: vertex id of a facet, so up to 2,097,152 output vertices.
-KEY_BITS = 63
 
 
 @dataclass
@@ -221,8 +218,7 @@ class DeviationStage:
         if len(tri) == 0:
             self._d_in[idx], self._near[idx] = np.inf, -1
             return
-        output = core.MeshDistance(V, tri, side=False, winding=False)
-        d, _, face, _ = output.query(self._probes[idx])
+        d, _, face, _ = _output_tree(V, tri).query(self._probes[idx])
         self._d_in[idx], self._near[idx] = d, tri[face]
 
     def stats(self) -> dict:
@@ -274,45 +270,9 @@ def _around(V: np.ndarray, tri: np.ndarray, tree, points: np.ndarray, upper: np.
     return tri[near[tri].any(axis=1)]
 
 
-class RowSet:
-    """Rows of vertex ids (each row sorted), for membership tests: one int64
-    key per row, kept sorted, where the ids fit (:func:`row_keys`); the rows
-    themselves and :func:`~rdmesh._vectors.row_index` where they do not."""
-
-    def __init__(self, rows: np.ndarray) -> None:
-        self.rows = np.asarray(rows, np.int64)
-        self.keys = row_keys(self.rows)
-        if self.keys is not None:
-            self.keys.sort()
-
-    def contains(self, rows: np.ndarray) -> np.ndarray:
-        """Whether each of ``rows`` is in the set."""
-        keys = row_keys(rows)
-        if keys is None or self.keys is None:
-            return row_index(rows, self.rows) >= 0
-        if len(self.keys) == 0:
-            return np.zeros(len(keys), bool)
-        at = np.minimum(np.searchsorted(self.keys, keys), len(self.keys) - 1)
-        return self.keys[at] == keys
-
-    def add(self, rows: np.ndarray) -> None:
-        """Add ``rows`` (not already in the set)."""
-        self.__init__(np.concatenate([self.rows, rows]))
-
-
-def row_keys(rows: np.ndarray) -> np.ndarray | None:
-    """One int64 key per row of non-negative integers, in the rows'
-    lexicographic order (:data:`KEY_BITS` bits per column); None where an
-    entry does not fit."""
-    rows = np.asarray(rows, np.int64)
-    bits = KEY_BITS // max(rows.shape[1], 1)
-    if len(rows) and (rows.min() < 0 or rows.max() >> bits):
-        return None
-    keys = rows[:, 0].copy()
-    for j in range(1, rows.shape[1]):
-        keys <<= bits
-        keys |= rows[:, j]
-    return keys
+def _output_tree(V: np.ndarray, tri: np.ndarray):
+    """The output's AABB tree for distances (no side, no winding numbers)."""
+    return core.MeshDistance(V, tri, side=False, winding=False)
 
 
 def _ends_and_midpoints(ends: np.ndarray) -> np.ndarray:
