@@ -95,11 +95,11 @@ class SurfaceMesh:
         (report ``certified``).
 
         Tests that held only on samples (see each test's ``level`` in
-        :attr:`report`) do not certify. In certify mode (expression surfaces)
-        the seeding, the Voronoi-edge crossings and the Voronoi-facet crossing
-        count are proven; the loop and silhouette tests are still sampled, so
-        this is False for every surface today; ``report["tbp_holds"]`` says
-        whether all tests held.
+        :attr:`report`) do not certify. Only expression surfaces in certify
+        mode (the topological-ball method's default) can have every test
+        proven, by interval arithmetic; a plain numpy function, a mesh or a
+        volume never does. ``report["tbp_holds"]`` says whether all tests
+        held, and ``report["statement"]`` which were proven.
         """
         return bool(self.report.get("certified", False))
 
