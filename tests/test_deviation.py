@@ -272,3 +272,32 @@ def test_mesh_distance_without_its_winding_hierarchy():
     with pytest.raises(RuntimeError, match="winding"):
         bare.winding_number(p)
     assert np.isfinite(full.winding_number(p)).all()
+
+
+def test_later_checks_measure_the_exact_distance_to_the_output():
+    """A later check measures a point whose nearest facet survived only
+    against the facets near the new ones (the smaller of that and its last
+    distance): beyond the bound the distances are those to the whole output."""
+    stage = DeviationStage(faceted_sphere(), 1e-4)
+    ico = trimesh.creation.icosphere(subdivisions=2)
+    V = np.asarray(ico.vertices) * 0.97
+    tri = np.sort(np.asarray(ico.faces, np.int64), axis=1)
+    stage._input_to_output(V, tri, cKDTree(V))
+    # Three faces split at a point pushed out to the input: new facets there.
+    V2, split = V.copy(), []
+    for face in tri[:3]:
+        c = V[face].mean(axis=0)
+        V2 = np.vstack([V2, c / np.linalg.norm(c)])
+        n = len(V2) - 1
+        split += [[face[0], face[1], n], [face[1], face[2], n], [face[0], face[2], n]]
+    tri2 = np.sort(np.vstack([tri[3:], split]), axis=1)
+    got = stage._input_to_output(V2, tri2, cKDTree(V2)).copy()
+    exact = MeshDistance(V2, tri2, side=False).query(stage._probes)[0]
+    # Beyond the bound, exact; within it, an upper bound (enough to know).
+    beyond = got > stage.bound
+    assert beyond.sum() > 0.9 * len(got) and (~beyond).sum() > 0
+    np.testing.assert_allclose(got[beyond], exact[beyond], rtol=1e-12)
+    assert np.all(exact[~beyond] <= got[~beyond] * (1 + 1e-12))
+    for i in np.random.default_rng(0).choice(len(got), 20, replace=False):
+        one = MeshDistance(V2, stage._near[i : i + 1], side=False).query(stage._probes[i : i + 1])
+        np.testing.assert_allclose(one[0], got[i : i + 1], rtol=1e-12)  # _near is its facet

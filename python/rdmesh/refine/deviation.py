@@ -87,8 +87,8 @@ class DeviationStage:
     and ``closest_points``); ``balls`` the protecting balls, if any.
 
     After the first check, only what changed is measured again: the input is
-    fixed, so an output edge found within the bound stays so, and an input
-    point's distance can grow only where its nearest facet is gone.
+    fixed, so an output edge found within the bound stays so; an input point's
+    distance grows only where its nearest facet is gone, else shrinks to a new one's.
     """
 
     surface: object
@@ -176,8 +176,7 @@ class DeviationStage:
         return Candidates(self.name, points, gap, False, over)
 
     def _output_to_input(self, V: np.ndarray, edges: np.ndarray):
-        """Distances to the input from the midpoints of the output's ``edges``
-        not yet found within the bound, and the input's closest points."""
+        """Midpoints of ``edges`` not yet within the bound: distances, closest points."""
         edges = edges[~self._ok_edges.contains(edges)]
         if len(edges) == 0:
             return np.zeros(0), np.zeros((0, 3))
@@ -191,12 +190,12 @@ class DeviationStage:
         """Each input point's distance to the output (its last value where
         its nearest facet is still there and it was within the bound);
         ``tree`` is a k-d tree of ``V``."""
-        again = np.ones(len(self._d_in), bool)
+        again, kept = np.ones(len(self._d_in), bool), np.zeros(len(self._d_in), bool)
         local, now = tri, RowSet(tri)
         if self._tri is not None:
-            again = ~now.contains(self._near) | ((self._d_in > self.bound) & self._free)
-            # The nearest facet of a vertex whose own is gone is most likely
-            # among the facets that touch the new ones' vertices.
+            kept = now.contains(self._near)  # the nearest facet is still there
+            again = ~kept | ((self._d_in > self.bound) & self._free)
+            # Every new facet touches a vertex of a new one (local holds them).
             fresh = tri[~self._tri.contains(tri)]
             touched = np.zeros(len(V), bool)
             touched[fresh.ravel()] = True
@@ -205,10 +204,11 @@ class DeviationStage:
         idx = np.flatnonzero(again)
         upper = np.full(len(idx), np.inf)
         if len(idx) and len(local) < len(tri):
+            last = self._d_in[idx], self._near[idx]
             self._measure(V, local, idx)
-            # Beyond the bound there: perhaps only because the nearest facet
-            # lies elsewhere, so measured against every facet that can hold it.
-            idx = idx[self._d_in[idx] > self.bound]
+            _keep_nearer(self, idx, kept[idx], *last)
+            # Nearest facet gone, beyond the bound: measured where the nearest can be.
+            idx = idx[~kept[idx] & (self._d_in[idx] > self.bound)]
             upper = self._d_in[idx]
         if len(idx):
             self._measure(V, _around(V, tri, tree, self._probes[idx], upper), idx)
@@ -268,6 +268,15 @@ def _around(V: np.ndarray, tri: np.ndarray, tree, points: np.ndarray, upper: np.
     near = np.zeros(len(V), bool)
     near[np.fromiter(chain.from_iterable(found), np.int64)] = True
     return tri[near[tri].any(axis=1)]
+
+
+def _keep_nearer(stage: DeviationStage, idx, kept, d, near) -> None:
+    """Where ``kept`` (the points ``idx`` whose nearest facet is still there),
+    their last distance ``d`` and facet ``near`` where smaller than the new
+    facets' just measured: the distance to the output is then exactly the
+    smaller of the two, since every other facet was there before."""
+    back = kept & (d < stage._d_in[idx])
+    stage._d_in[idx[back]], stage._near[idx[back]] = d[back], near[back]
 
 
 def _output_tree(V: np.ndarray, tri: np.ndarray):
