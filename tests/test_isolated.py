@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 import rdmesh
 import trimesh
+from rdmesh._tol import SHOT_ATOL
+from rdmesh.sampling.roots import crossings_along_segments
 from rdmesh.surfaces import SURFACES
 from rdmesh.topology import snapshot as snapshot_module
 from rdmesh.topology import tests as topology_tests
@@ -93,7 +95,7 @@ def test_shots_cross_a_mesh_exactly():
     d[:100, 2] = np.abs(d[:100, 2]) * 4.0  # towards the plate
     d /= np.linalg.norm(d, axis=1)[:, None]
     length = np.full(200, 3.0)
-    hit, point = topology_tests._shot_crossings(surface, start, d, length)
+    hit, point = _shots(surface, start, d, length)
     assert np.all(np.diff(hit) >= 0)
     tri = mesh.vertices[mesh.faces]
     for k in range(200):
@@ -104,8 +106,15 @@ def test_shots_cross_a_mesh_exactly():
     # From the centre through a vertex (2 v is exact: the segment holds v).
     o, u, far = np.zeros((1, 3)), np.asarray(mesh.vertices[:1]), 2.0
     assert surface.exact_crossings(np.stack([o, o + far * u], axis=1))[-1][0]  # unsure
-    hit, point = topology_tests._shot_crossings(surface, o, u, np.array([far]))
+    hit, point = _shots(surface, o, u, np.array([far]))
     np.testing.assert_allclose(point, mesh.vertices[:1], atol=1e-6)
+
+
+def _shots(surface, start, d, length):
+    """The shots' crossings as the isolated-sample test searches them."""
+    return crossings_along_segments(
+        surface, start, d, length, topology_tests.SHOT_SAMPLES, SHOT_ATOL * surface.radius
+    )
 
 
 def _ray_hits(tri, o, d, length):

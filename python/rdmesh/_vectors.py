@@ -68,10 +68,7 @@ class RowSet:
     themselves and :func:`row_index` where they do not."""
 
     def __init__(self, rows: np.ndarray) -> None:
-        self.rows = np.asarray(rows, np.int64)
-        self.keys = row_keys(self.rows)
-        if self.keys is not None:
-            self.keys.sort()
+        self._hold(np.asarray(rows, np.int64))
 
     def contains(self, rows: np.ndarray) -> np.ndarray:
         """Whether each of ``rows`` is in the set."""
@@ -85,7 +82,12 @@ class RowSet:
 
     def add(self, rows: np.ndarray) -> None:
         """Add ``rows`` (not already in the set)."""
-        self.__init__(np.concatenate([self.rows, rows]))  # the keys sorted again
+        self._hold(np.concatenate([self.rows, np.asarray(rows, np.int64)]))
+
+    def _hold(self, rows: np.ndarray) -> None:
+        self.rows, self.keys = rows, row_keys(rows)
+        if self.keys is not None:
+            self.keys.sort()
 
 
 def row_keys(rows: np.ndarray) -> np.ndarray | None:

@@ -205,21 +205,15 @@ class DeviationStage:
         upper = np.full(len(idx), np.inf)
         if len(idx) and len(local) < len(tri):
             last = self._d_in[idx], self._near[idx]
-            self._measure(V, local, idx)
-            _keep_nearer(self, idx, kept[idx], *last)
+            new = _distances(V, local, self._probes[idx])
+            self._d_in[idx], self._near[idx] = _nearer(kept[idx], last, *new)
             # Nearest facet gone, beyond the bound: measured where the nearest can be.
             idx = idx[~kept[idx] & (self._d_in[idx] > self.bound)]
             upper = self._d_in[idx]
         if len(idx):
-            self._measure(V, _around(V, tri, tree, self._probes[idx], upper), idx)
+            around = _around(V, tri, tree, self._probes[idx], upper)
+            self._d_in[idx], self._near[idx] = _distances(V, around, self._probes[idx])
         return self._d_in
-
-    def _measure(self, V: np.ndarray, tri: np.ndarray, idx: np.ndarray) -> None:
-        if len(tri) == 0:
-            self._d_in[idx], self._near[idx] = np.inf, -1
-            return
-        d, _, face, _ = _output_tree(V, tri).query(self._probes[idx])
-        self._d_in[idx], self._near[idx] = d, tri[face]
 
     def stats(self) -> dict:
         """``checks`` made, points ``proposed``, points beyond the bound ``left``
@@ -270,18 +264,23 @@ def _around(V: np.ndarray, tri: np.ndarray, tree, points: np.ndarray, upper: np.
     return tri[near[tri].any(axis=1)]
 
 
-def _keep_nearer(stage: DeviationStage, idx, kept, d, near) -> None:
-    """Where ``kept`` (the points ``idx`` whose nearest facet is still there),
-    their last distance ``d`` and facet ``near`` where smaller than the new
-    facets' just measured: the distance to the output is then exactly the
-    smaller of the two, since every other facet was there before."""
-    back = kept & (d < stage._d_in[idx])
-    stage._d_in[idx[back]], stage._near[idx[back]] = d[back], near[back]
+def _nearer(kept, last, d, near) -> tuple[np.ndarray, np.ndarray]:
+    """Distances ``d`` to the new facets and those facets ``near``, or where
+    ``kept`` (the nearest facet is still there) the ``last`` pair if nearer:
+    the distance to the output is then exactly the smaller of the two, since
+    every other facet was there before."""
+    back = kept & (last[0] < d)
+    return np.where(back, last[0], d), np.where(back[:, None], last[1], near)
 
 
-def _output_tree(V: np.ndarray, tri: np.ndarray):
-    """The output's AABB tree for distances (no side, no winding numbers)."""
-    return core.MeshDistance(V, tri, side=False, winding=False)
+def _distances(V: np.ndarray, tri: np.ndarray, points: np.ndarray):
+    """Each of ``points``' distance to the facets ``tri`` of ``V`` and its
+    nearest facet (inf and -1 without facets); the tree is built without a
+    side or winding numbers."""
+    if len(tri) == 0:
+        return np.full(len(points), np.inf), np.full((len(points), 3), -1, np.int64)
+    d, _, face, _ = core.MeshDistance(V, tri, side=False, winding=False).query(points)
+    return d, tri[face]
 
 
 def _ends_and_midpoints(ends: np.ndarray) -> np.ndarray:

@@ -24,7 +24,7 @@ from .._tol import SHOT_ATOL
 from .._vectors import row_norms
 from ..surfaces.oracle import ImplicitSurface
 from .domain import clip_box, depth
-from .roots import SegmentSamples, line_crossings
+from .roots import crossings_along_segments
 from .screen import SlopeField
 
 log = logging.getLogger("rdmesh")
@@ -149,7 +149,11 @@ def grid_scan(
     origin = np.concatenate(origins)
     direction = np.ascontiguousarray(np.concatenate(dirs))
     cell = np.concatenate(cells)
-    points, segment = _edge_crossings(surface, origin, direction, h)
+    # Each edge has a sign change: exact crossings on a mesh, else one root each.
+    segment, points = crossings_along_segments(
+        surface, origin, direction, np.full(len(origin), h), 1, SHOT_ATOL * surface.radius,
+        each_crosses=True,
+    )  # fmt: skip
     cell = cell[segment]
     if clipped:
         within = depth(surface, points) > 0
@@ -189,35 +193,6 @@ def grid_scan(
     else:
         slopes = SlopeField.proven(lower, h, c0, rot, R + h - shift, float(lipschitz))
     return GridScan(out, points, h, slopes)
-
-
-def _edge_crossings(
-    surface: ImplicitSurface, origin: np.ndarray, direction: np.ndarray, h: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Crossings of the grid edges ``origin + s direction``, ``0 <= s <= h``
-    (each with a sign change): the points and their edges. A mesh input gives
-    them exactly (``exact_crossings``); edges it is unsure of, and other
-    surfaces, get the root search."""
-    exact = getattr(surface, "exact_crossings", None)
-    todo = np.arange(len(origin))
-    points, segment = [np.zeros((0, 3))], [np.zeros(0, np.int64)]
-    if exact is not None:
-        seg, _, point, _, _, unsure = exact(np.stack([origin, origin + h * direction], axis=1))
-        # An edge with a sign change and no hit is one the hits got wrong.
-        unsure |= np.bincount(seg, minlength=len(origin)) == 0
-        points.append(point[~unsure[seg]])
-        segment.append(seg[~unsure[seg]])
-        todo = np.flatnonzero(unsure)
-    if len(todo):
-        samples = SegmentSamples.uniform(np.full(len(todo), h), 1)
-        cr = line_crossings(
-            surface, origin[todo], direction[todo], samples, xatol=SHOT_ATOL * surface.radius
-        )
-        points.append(cr.point)
-        segment.append(todo[cr.segment])
-    points, segment = np.concatenate(points), np.concatenate(segment)
-    order = np.argsort(segment, kind="stable")
-    return points[order], segment[order]
 
 
 #: Stride of the coarse grid of :func:`_lipschitz_grid`.

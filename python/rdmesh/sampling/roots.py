@@ -159,6 +159,48 @@ def line_crossings(
     return Crossings(seg, root, point, rising, failed, slope)
 
 
+def crossings_along_segments(
+    surface: ImplicitSurface,
+    origin: np.ndarray,
+    direction: np.ndarray,
+    length: np.ndarray,
+    samples: int,
+    xatol: float,
+    each_crosses: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The crossings of the segments ``origin + s direction``, ``0 <= s <=
+    length``: their segments and points, in segment order then along each.
+
+    A mesh input gives them exactly (``exact_crossings``: every face a
+    segment meets); the segments it is unsure of, and those of other
+    surfaces, get :func:`line_crossings` with ``samples`` samples each. With
+    ``each_crosses`` (every segment is known to cross), a segment without a
+    hit is one the hits got wrong, and is searched too.
+    """
+    exact = getattr(surface, "exact_crossings", None)
+    todo = np.arange(len(origin))
+    segments, points = [np.zeros(0, np.int64)], [np.zeros((0, 3))]
+    if exact is not None and len(origin):
+        seg, _, point, _, _, unsure = exact(
+            np.stack([origin, origin + length[:, None] * direction], axis=1)
+        )
+        if each_crosses:
+            unsure |= np.bincount(seg, minlength=len(origin)) == 0
+        segments.append(seg[~unsure[seg]])
+        points.append(point[~unsure[seg]])
+        todo = np.flatnonzero(unsure)
+    if len(todo):
+        cr = line_crossings(
+            surface, origin[todo], direction[todo],
+            SegmentSamples.uniform(length[todo], samples), xatol=xatol,
+        )  # fmt: skip
+        segments.append(todo[cr.segment])
+        points.append(cr.point)
+    segment, point = np.concatenate(segments), np.concatenate(points)
+    order = np.argsort(segment, kind="stable")
+    return segment[order], point[order]
+
+
 def _line_function(surface):
     def g(s, ox, oy, oz, dx, dy, dz):
         x = np.stack([ox + s * dx, oy + s * dy, oz + s * dz], axis=-1)

@@ -53,7 +53,7 @@ from scipy.spatial import cKDTree
 from .._tol import SHOT_ATOL, SHOT_OFFSET, SILHOUETTE_SLACK
 from .._vectors import unit_rows
 from ..sampling.probes import Probes
-from ..sampling.roots import SegmentSamples, line_crossings
+from ..sampling.roots import crossings_along_segments
 from .complex import largest_incident, marked
 from .loops import loop_test
 
@@ -177,6 +177,9 @@ def _lonely(tri, n_vertices: int, weights) -> np.ndarray:
 #: 65 samples, so this bounds the test's memory (a run stopped by its budget
 #: can leave hundreds of thousands of isolated samples).
 SHOT_CHUNK = 4096
+#: Samples of ``f`` along a shot where its crossings are searched for
+#: (:func:`~rdmesh.sampling.roots.crossings_along_segments`; a mesh's are exact).
+SHOT_SAMPLES = 64
 #: Protecting balls compared with the crossings at a time.
 BALL_CHUNK = 1024
 
@@ -214,7 +217,9 @@ def shoot_from(surface, vertices, ids, tree=None):
     c = np.einsum("ij,ij->i", f, f) - R * R
     length = -b + np.sqrt(np.maximum(b * b - c, 0.0))
     rows = np.flatnonzero(length > 0)
-    hit, point = _shot_crossings(surface, start[rows], d[rows], length[rows])
+    hit, point = crossings_along_segments(
+        surface, start[rows], d[rows], length[rows], SHOT_SAMPLES, SHOT_ATOL * R
+    )
     if hit.size == 0:
         return np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64)
     first = np.r_[True, hit[1:] != hit[:-1]]
@@ -226,35 +231,6 @@ def shoot_from(surface, vertices, ids, tree=None):
     r = np.linalg.norm(x - vertices[me], axis=1)
     pick = largest_incident(me, np.arange(len(x)), r)
     return x[pick], r[pick], me[pick]
-
-
-#: Samples of ``f`` along a shot where its crossings are searched for.
-SHOT_SAMPLES = 64
-
-
-def _shot_crossings(surface, start, d, length) -> tuple[np.ndarray, np.ndarray]:
-    """The crossings of the shots ``start + s d``, ``0 <= s <= length``: their
-    shots and points, in shot order then along each. A mesh input gives them
-    exactly (``exact_crossings``: every face a shot meets); shots it is unsure
-    of, and other surfaces, get the sampled search (:data:`SHOT_SAMPLES`)."""
-    exact = getattr(surface, "exact_crossings", None)
-    todo = np.arange(len(start))
-    hits, points = [np.zeros(0, np.int64)], [np.zeros((0, 3))]
-    if exact is not None and len(start):
-        seg, _, point, _, _, unsure = exact(np.stack([start, start + length[:, None] * d], axis=1))
-        hits.append(seg[~unsure[seg]])
-        points.append(point[~unsure[seg]])
-        todo = np.flatnonzero(unsure)
-    if len(todo):
-        samples = SegmentSamples.uniform(length[todo], SHOT_SAMPLES)
-        cr = line_crossings(
-            surface, start[todo], d[todo], samples, xatol=SHOT_ATOL * surface.radius
-        )
-        hits.append(todo[cr.segment])
-        points.append(cr.point)
-    hit, point = np.concatenate(hits), np.concatenate(points)
-    order = np.argsort(hit, kind="stable")
-    return hit[order], point[order]
 
 
 def shot_directions(n: np.ndarray) -> np.ndarray:
