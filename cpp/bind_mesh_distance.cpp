@@ -8,6 +8,7 @@
 
 #include "bindings.hpp"
 #include "mesh_distance.hpp"
+#include "point_map.hpp"
 
 namespace rdmesh::bind {
 
@@ -109,6 +110,37 @@ void register_mesh_distance(py::module_& m) {
       .def_property_readonly("has_pseudo_normals", &MeshDistance::has_pseudo_normals)
       .def_property_readonly("side_failure", &MeshDistance::side_failure)
       .def_property_readonly("number_of_faces", &MeshDistance::number_of_faces);
+
+  py::class_<PointMap>(m, "PointMap")
+      .def(py::init<>())
+      .def(
+          "add",
+          [](PointMap& self, const InArray& points, const IdArray& ids) {
+            const std::vector<double> p = rows3(points, "points");
+            if (ids.ndim() != 1 || static_cast<std::size_t>(ids.shape(0)) != p.size() / 3)
+              throw std::invalid_argument("ids must have shape (n,), one per point");
+            const std::vector<std::int64_t> id = copy_of<std::int64_t>(ids);
+            py::gil_scoped_release release;
+            self.add(p.data(), id.data(), id.size());
+          },
+          py::arg("points"), py::arg("ids"),
+          "Remember an id (>= 0) for each of (n, 3) points, keyed by their exact "
+          "coordinates (-0.0 as 0.0); where one is held already, the smaller "
+          "stays. Points with a non-finite coordinate are skipped.")
+      .def(
+          "get",
+          [](const PointMap& self, const InArray& points) {
+            const std::vector<double> p = rows3(points, "points");
+            std::vector<std::int64_t> out(p.size() / 3);
+            {
+              py::gil_scoped_release release;
+              self.get(p.data(), out.size(), out.data());
+            }
+            return to_numpy(out);
+          },
+          py::arg("points"), "(n,) int64: the id held for each point, or -1.")
+      .def("clear", &PointMap::clear, "Forget every point.")
+      .def_property_readonly("size", &PointMap::size, "How many points are held.");
 }
 
 }  // namespace rdmesh::bind

@@ -5,7 +5,7 @@
 //   module.cpp              the module, CGAL's error handling, RestrictedDelaunay
 //   bind_intervals.cpp      interval programs: evaluation, box proofs, root isolation
 //   bind_sampling.cpp       dual segments: sampling and the sign scan
-//   bind_mesh_distance.cpp  MeshDistance
+//   bind_mesh_distance.cpp  MeshDistance, PointMap
 //   volume_sampler.cpp      VolumeSampler
 #pragma once
 

@@ -301,3 +301,25 @@ def test_later_checks_measure_the_exact_distance_to_the_output():
     for i in np.random.default_rng(0).choice(len(got), 20, replace=False):
         one = MeshDistance(V2, stage._near[i : i + 1], side=False).query(stage._probes[i : i + 1])
         np.testing.assert_allclose(one[0], got[i : i + 1], rtol=1e-12)  # _near is its facet
+
+
+def test_edges_with_both_ends_crossings_on_one_face_are_not_measured():
+    """An output edge whose ends were found on one input face lies on it: it
+    is within the bound without a query. Ends on two faces, or not found as
+    crossings, are measured."""
+    surface = faceted_sphere()
+    stage = DeviationStage(surface, 1e-4)
+    v, f = surface.vertices, surface.faces
+    opposite = int(np.argmin(v[f].mean(axis=1) @ v[f[0]].mean(axis=0)))
+    inner = np.array([[0.6, 0.3, 0.1], [0.2, 0.3, 0.5]])
+    targets = np.concatenate([inner @ v[f[0]], inner[:1] @ v[f[opposite]]])
+    # Rays from the centre out through the faces: crossings remembered.
+    _, _, found, _, _, _ = surface.exact_crossings(np.stack([0 * targets, 2 * targets], axis=1))
+    assert surface.crossing_faces(found).tolist() == [0, 0, opposite]
+    V = np.concatenate([found, 0.9 * found[:2]])  # two more vertices, not crossings
+    edges = np.array([[0, 1], [0, 2], [3, 4]])
+    d, near = stage._output_to_input(V, edges)
+    assert len(d) == 2 and (d > stage.bound).all()  # [0, 2] and [3, 4]
+    assert stage._ok_edges.contains(edges).tolist() == [True, False, False]
+    # The settled edge's midpoint is on the input indeed.
+    assert abs(surface.signed_distance(V[:2].mean(axis=0, keepdims=True))[0]) < 1e-12

@@ -335,3 +335,72 @@ def test_the_gradient_is_a_unit_vector_off_the_holes_band():
     assert np.allclose(np.linalg.norm(g, axis=1), 1.0)
     closed = rdmesh.MeshSurface(sphere_mesh((0, 0, 0), 0.8, 16))
     assert closed.unit_gradient_at(p).all()
+
+
+# -- the faces of exact crossings ---------------------------------------------------
+
+
+def test_point_map_keeps_the_smallest_id_per_exact_point():
+    from rdmesh.core import PointMap
+
+    rng = np.random.default_rng(3)
+    p = rng.normal(size=(5000, 3))
+    ids, again = rng.integers(0, 100, 5000), rng.integers(0, 100, 2000)
+    pts, all_ids = np.concatenate([p, p[:2000]]), np.concatenate([ids, again])
+    m = PointMap()
+    for part in np.array_split(rng.permutation(len(pts)), 7):  # any order, grown in steps
+        m.add(pts[part], all_ids[part])
+    want = ids.copy()
+    want[:2000] = np.minimum(ids[:2000], again)
+    assert m.size == 5000 and np.array_equal(m.get(p), want)
+    # One ulp away is another point; -0.0 is 0.0; a NaN is never held.
+    assert (m.get(np.nextafter(p, np.inf)) == -1).all()
+    m.add(np.array([[-0.0, 1.0, 2.0], [np.nan, 0.0, 0.0]]), np.array([7, 8]))
+    assert m.get(np.array([[0.0, 1.0, 2.0], [np.nan, 0.0, 0.0]])).tolist() == [7, -1]
+    with pytest.raises(ValueError, match=">= 0"):
+        m.add(p[:1], np.array([-1]))
+    with pytest.raises(ValueError, match="one per point"):
+        m.add(p[:2], np.array([1]))
+    m.clear()
+    assert m.size == 0 and (m.get(p) == -1).all()
+
+
+def test_crossings_give_their_faces_and_the_faces_normals():
+    from rdmesh.surfaces._mesh_queries import queried_gradient
+
+    surface = rdmesh.MeshSurface(mc_mesh(torus_f, -1.6, 1.6, 32))
+    rng = np.random.default_rng(14)
+    v = surface.vertices
+    a = v[rng.integers(0, len(v), 2000)] + rng.normal(0, 0.1, (2000, 3))
+    seg = np.stack([a, a + rng.normal(0, 0.2, (2000, 3))], axis=1)
+    _, _, point, _, _, _ = surface.exact_crossings(seg)
+    face = surface.crossing_faces(point)
+    assert len(point) > 500 and (face >= 0).all()
+    # Each crossing lies on the face it gives.
+    assert np.abs(surface.signed_distance(point)).max() < 1e-12
+    f = surface.faces[face]
+    n = surface._normals[face]
+    assert np.abs(np.einsum("ij,ij->i", point - v[f[:, 0]], n)).max() < 1e-12
+    # The gradient there is that face's normal, what the closest-point query
+    # gives but where a crossing ties between faces (on an edge).
+    g = surface.grad(point)
+    assert np.array_equal(g, n)
+    same = np.abs(g - queried_gradient(surface, point)).max(axis=1) < 1e-12
+    assert same.mean() > 0.99
+    # Other points are queried.
+    off = point + 1e-3
+    assert (surface.crossing_faces(off) == -1).all()
+    assert np.array_equal(surface.grad(off), queried_gradient(surface, off))
+
+
+def test_a_run_starts_without_the_last_runs_crossings():
+    surface = rdmesh.MeshSurface(sphere_mesh((0, 0, 0), 0.8, 16))
+    first = rdmesh.mesh_surface(surface, radius_bound=0.1)
+    # The samples are crossings (seeds and facet centres).
+    assert (surface.crossing_faces(first.vertices) >= 0).mean() > 0.9
+    stale = np.array([[0.0, 0.0, 0.8]])
+    surface._on_face.add(stale, np.array([0]))
+    second = rdmesh.mesh_surface(surface, radius_bound=0.1)
+    assert surface.crossing_faces(stale).tolist() == [-1]
+    assert np.array_equal(first.vertices, second.vertices)
+    assert np.array_equal(first.faces, second.faces)

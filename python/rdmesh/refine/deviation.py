@@ -83,7 +83,7 @@ class DeviationStage:
     """Input points and output edge midpoints farther from the other surface
     than ``bound`` (see the module's docstring).
 
-    ``surface`` is a closed :class:`~rdmesh.MeshSurface` (its ``vertices``
+    ``surface`` is a closed :class:`~rdmesh.MeshSurface` (its ``vertices``, ``crossing_faces``
     and ``closest_points``); ``balls`` the protecting balls, if any.
 
     After the first check, only what changed is measured again: the input is
@@ -180,6 +180,11 @@ class DeviationStage:
         edges = edges[~self._ok_edges.contains(edges)]
         if len(edges) == 0:
             return np.zeros(0), np.zeros((0, 3))
+        on_face = _on_one_face(self.surface, V, edges)
+        self._ok_edges.add(edges[on_face])
+        edges = edges[~on_face]
+        if len(edges) == 0:
+            return np.zeros(0), np.zeros((0, 3))
         probes = 0.5 * (V[edges[:, 0]] + V[edges[:, 1]])
         near, _ = self.surface.closest_points(probes)
         d = np.linalg.norm(probes - near, axis=1)
@@ -238,6 +243,14 @@ def input_probes(vertices: np.ndarray, faces: np.ndarray, spacing: float) -> np.
     step = np.arange(len(owner)) - np.repeat(np.cumsum(parts - 1) - (parts - 1), parts - 1) + 1
     t = (step / parts[owner])[:, None]
     return np.concatenate([v, p[owner] + t * (q[owner] - p[owner])])
+
+
+def _on_one_face(surface, V: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """(k,) bool: ``edges`` of ``V`` whose two ends were found as crossings
+    on one face of ``surface``; the face is flat, so their midpoints are on it."""
+    face = surface.crossing_faces(V)
+    a, b = face[edges[:, 0]], face[edges[:, 1]]
+    return (a >= 0) & (a == b)
 
 
 def _around(V: np.ndarray, tri: np.ndarray, tree, points: np.ndarray, upper: np.ndarray):

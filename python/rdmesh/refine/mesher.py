@@ -253,6 +253,9 @@ def _insert_stages(m: Mesher, points: np.ndarray, stages: np.ndarray) -> int:
 def _fresh(m: Mesher) -> None:
     """A new core, samples and pipeline (at the start, and for a repair)."""
     surface = m.surface
+    forget = getattr(surface, "forget_crossings", None)
+    if forget is not None:
+        forget()  # a run must not depend on an earlier run's crossings
     m.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
     box = clip_box(surface)
     if box is not None:  # checked by mesh_surface: inside the ball, with a boundary

@@ -49,7 +49,7 @@ def segment_crossings(surface, seg: np.ndarray):
     same = hit[1:] == hit[:-1]
     h.unsure[hit[1:][same & ((dn[1:] > 0) == (dn[:-1] > 0))]] = True
     keep = ~h.unsure[hit]
-    return h.crossings(keep, dn[keep] > 0, np.abs(dn[keep]))
+    return h.crossings(surface, keep, dn[keep] > 0, np.abs(dn[keep]))
 
 
 @dataclass
@@ -80,10 +80,12 @@ class _Hits:
         unsure[hit[1:][same & (s[1:] - s[:-1] <= HIT_MERGE * surface.radius)]] = True
         return cls(start, d, length, hit, t, face, unsure)
 
-    def crossings(self, keep: np.ndarray, rising: np.ndarray, cos: np.ndarray):
-        """The hits ``keep`` as crossings: :func:`segment_crossings`' tuple."""
+    def crossings(self, surface, keep: np.ndarray, rising: np.ndarray, cos: np.ndarray):
+        """The hits ``keep`` as crossings: :func:`segment_crossings`' tuple.
+        ``surface`` remembers the face of each (its ``crossing_faces``)."""
         hit, t = self.hit[keep], self.t[keep]
         point = self.start[hit] + t[:, None] * self.d[hit]
+        surface._on_face.add(point, self.face[keep])
         return hit, t * self.length[hit], point, rising, cos, self.unsure
 
 
@@ -176,7 +178,7 @@ def winding_crossings(surface, seg: np.ndarray):
     cross = inside_before != (after > 0.5)
     keep = np.zeros(len(hit), bool)
     keep[sel[cross]] = True
-    return h.crossings(keep, inside_before[cross], np.abs(dn[keep]))
+    return h.crossings(surface, keep, inside_before[cross], np.abs(dn[keep]))
 
 
 def _cumsum_by(group: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .._errors import MeshInputError
-from ..core import MeshDistance
+from ..core import MeshDistance, PointMap
 from ._mesh_crossings import hole_balls, segment_crossings, winding_crossings
 from ._mesh_input import is_closed_oriented, orient_normals, winding_ambiguity
 
@@ -76,6 +76,8 @@ class MeshQueries:
         # circumradius or half its longest edge, both <= longest edge / sqrt 3).
         self._vertex_gap = float(edges.max()) / np.sqrt(3.0)
         self._kdtree = cKDTree(v)
+        #: The face each exact crossing of this run lies on, by its coordinates.
+        self._on_face = PointMap()
 
     def _set_sign(self, norms: np.ndarray) -> None:
         """Choose how inside is told from outside (``sign_method``, ``ambiguous_share``,
@@ -146,29 +148,26 @@ class MeshQueries:
             ).astype(np.float64)
         return self._winding_factor(pts)
 
+    def forget_crossings(self) -> None:
+        """Forget the faces of the last run's crossings (a run starts)."""
+        self._on_face.clear()
+
+    def crossing_faces(self, points: np.ndarray) -> np.ndarray:
+        """``(N,)``: the face each of ``points`` lies on where it is an exact
+        crossing found in this run (bit for bit), else -1."""
+        return self._on_face.get(_points(points))
+
     def _gradient(self, points: np.ndarray) -> np.ndarray:
         pts = _points(points)
-        if len(pts) == 0:
-            return np.zeros((0, 3))
-        dist, closest, face, s = self._query(pts)
-        near = dist <= NORMAL_DISTANCE * self.radius
+        # A crossing's gradient is its face's normal: facet centres and
+        # samples are crossings, so most points need no query.
+        face = self._on_face.get(pts)
+        known = face >= 0
+        if known.all():
+            return self._normals[face]
         g = np.empty_like(pts)
-        far = ~near
-        # Outside s = 1 and p - closest points out; inside s = -1 and it points in.
-        g[far] = np.sign(s[far])[:, None] * (pts[far] - closest[far]) / dist[far, None]
-        g[near] = self._normals[face[near]]
-        band = far & (np.abs(s) < 1.0)
-        if band.any():
-            # Open meshes, across a hole: f = s(w) d, so grad f = s grad d + d grad s,
-            # with grad s from central differences of w (smooth there: no face within d).
-            p, d = pts[band], dist[band]
-            h = np.clip(0.1 * d, NORMAL_DISTANCE * self.radius, 1e-4 * self.radius)
-            step = h[None, :, None] * np.eye(3)[:, None, :]
-            probes = np.concatenate([p[None] + step, p[None] - step])
-            sw = self._winding_factor(probes.reshape(-1, 3)).reshape(2, 3, -1)
-            grad_s = ((sw[0] - sw[1]) / (2 * h)).T
-            unit = (p - closest[band]) / d[:, None]
-            g[band] = s[band, None] * unit + d[:, None] * grad_s
+        g[known] = self._normals[face[known]]
+        g[~known] = queried_gradient(self, pts[~known])
         return g
 
     def signed_distance(self, points: np.ndarray) -> np.ndarray:
@@ -196,3 +195,29 @@ class MeshQueries:
         """Generalized winding number of the mesh at ``(N, 3)`` points: ``(N,)``."""
         pts = _points(points)
         return self._core.winding_number(pts)
+
+
+def queried_gradient(q: MeshQueries, pts: np.ndarray) -> np.ndarray:
+    """The gradient of ``q``'s ``f`` at ``(N, 3)`` points from closest-point queries."""
+    if len(pts) == 0:
+        return np.zeros((0, 3))
+    dist, closest, face, s = q._query(pts)
+    near = dist <= NORMAL_DISTANCE * q.radius
+    g = np.empty_like(pts)
+    far = ~near
+    # Outside s = 1 and p - closest points out; inside s = -1 and it points in.
+    g[far] = np.sign(s[far])[:, None] * (pts[far] - closest[far]) / dist[far, None]
+    g[near] = q._normals[face[near]]
+    band = far & (np.abs(s) < 1.0)
+    if band.any():
+        # Open meshes, across a hole: f = s(w) d, so grad f = s grad d + d grad s,
+        # with grad s from central differences of w (smooth there: no face within d).
+        p, d = pts[band], dist[band]
+        h = np.clip(0.1 * d, NORMAL_DISTANCE * q.radius, 1e-4 * q.radius)
+        step = h[None, :, None] * np.eye(3)[:, None, :]
+        probes = np.concatenate([p[None] + step, p[None] - step])
+        sw = q._winding_factor(probes.reshape(-1, 3)).reshape(2, 3, -1)
+        grad_s = ((sw[0] - sw[1]) / (2 * h)).T
+        unit = (p - closest[band]) / d[:, None]
+        g[band] = s[band, None] * unit + d[:, None] * grad_s
+    return g
