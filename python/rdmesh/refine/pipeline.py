@@ -44,6 +44,11 @@ CORE_CHUNK = 1 << 15
 CHUNK = 1 << 15
 #: A small first chunk: Python waits for it with nothing to overlap.
 FIRST_CHUNK = 1 << 13
+#: The same with exact crossings (closed meshes): a chunk costs no root
+#: search, and the main thread waits for each round's first chunk, so smaller
+#: ones keep both threads busy (bone at 0.3 %: 0.12 s of waiting instead of
+#: 0.27 s, 2.16-2.28 s instead of 2.21-2.42 s a run; the same mesh).
+EXACT_FIRST_CHUNK, EXACT_CHUNK = 1 << 12, 1 << 13
 #: What changed_facets takes when the surface gives exact crossings: one
 #: interval per segment, no interior samples.
 NO_SAMPLES = {**SAMPLING, "min_intervals": 1, "max_intervals": 1}
@@ -152,7 +157,8 @@ class FacetPipeline:
             # A bound raised last round reaches the core now, while its worker
             # is idle: a change during a round would race the next chunk.
             rdt.set_clearing_cap(self.slope.value)
-        job = self._worker.submit(changed, FIRST_CHUNK, **sampling)
+        first, size = (EXACT_FIRST_CHUNK, EXACT_CHUNK) if exact else (FIRST_CHUNK, CORE_CHUNK)
+        job = self._worker.submit(changed, first, **sampling)
         last_f = None  # f at the previous chunk's ends
         while True:
             with timed("changed_facets"):
@@ -163,7 +169,7 @@ class FacetPipeline:
                 # The worker is idle: its update jobs ran before this chunk was made.
                 with timed("fine_clearing"):
                     self.fine.refine()
-            job = self._worker.submit(changed, CORE_CHUNK, **sampling)
+            job = self._worker.submit(changed, size, **sampling)
             with timed("evaluate"):
                 bound = None if self.slope is None else self.slope.for_segments(seg)
                 end_f = None
