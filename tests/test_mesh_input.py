@@ -393,14 +393,42 @@ def test_crossings_give_their_faces_and_the_faces_normals():
     assert np.array_equal(surface.grad(off), queried_gradient(surface, off))
 
 
-def test_a_run_starts_without_the_last_runs_crossings():
+class _FacesSpy:
+    """A MeshSurface's PointMap, counting how many points asked for were held."""
+
+    def __init__(self, inner, watch):
+        self.inner, self.asked, self.held = inner, 0, 0
+        #: The face held for the point ``watch`` at each add.
+        self.watch, self.watched = watch, []
+
+    def add(self, points, ids):
+        self.watched.append(int(self.inner.get(self.watch)[0]))
+        self.inner.add(points, ids)
+
+    def get(self, points):
+        out = self.inner.get(points)
+        self.asked, self.held = self.asked + len(out), self.held + int((out >= 0).sum())
+        return out
+
+    def clear(self):
+        self.inner.clear()
+
+    @property
+    def size(self):
+        return self.inner.size
+
+
+def test_a_run_keeps_its_crossings_faces_only_while_it_runs():
     surface = rdmesh.MeshSurface(sphere_mesh((0, 0, 0), 0.8, 16))
+    stale = np.array([[0.0, 0.0, 0.8]])  # not a crossing of the run
+    spy = surface._on_face = _FacesSpy(surface._on_face, stale)
+    spy.add(stale, np.array([0]))
     first = rdmesh.mesh_surface(surface, radius_bound=0.1)
-    # The samples are crossings (seeds and facet centres).
-    assert (surface.crossing_faces(first.vertices) >= 0).mean() > 0.9
-    stale = np.array([[0.0, 0.0, 0.8]])
-    surface._on_face.add(stale, np.array([0]))
+    # Gradients were asked at facet centres and samples, nearly all crossings.
+    assert spy.asked > len(first.vertices) and spy.held > 0.9 * spy.asked
+    # Forgotten when the run starts (the stale point) and when it ends.
+    assert len(spy.watched) > 1 and set(spy.watched) == {-1}
+    assert spy.size == 0
     second = rdmesh.mesh_surface(surface, radius_bound=0.1)
-    assert surface.crossing_faces(stale).tolist() == [-1]
     assert np.array_equal(first.vertices, second.vertices)
     assert np.array_equal(first.faces, second.faces)

@@ -10,7 +10,7 @@ from .features.given import ProtectingBalls
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria, Sizing
 from .refine.feature_curves import has_given_curves, search_creases
-from .refine.mesher import Budget, Mesher
+from .refine.mesher import Budget, Mesher, forget_crossings
 from .refine.methods import METHODS, TOPOLOGIES
 from .surfaces.expressions import Expression
 from .surfaces.oracle import ImplicitSurface
@@ -267,13 +267,16 @@ def mesh_surface(
         edge_size=edge_size,
         creases=creases,
     )
-    if progress is True:
-        from .progress import ProgressBar
+    try:
+        if progress is True:
+            from .progress import ProgressBar
 
-        with ProgressBar() as bar:
-            mesher.progress = bar.update
-            return mesher.run()
-    return mesher.run()
+            with ProgressBar() as bar:
+                mesher.progress = bar.update
+                return mesher.run()
+        return mesher.run()
+    finally:
+        forget_crossings(surface)  # their memory goes with the run
 
 
 def _topology(surface: ImplicitSurface, topology: str | None, method: str) -> str:

@@ -250,12 +250,18 @@ def _insert_stages(m: Mesher, points: np.ndarray, stages: np.ndarray) -> int:
     return sum(m._insert(points[stages == name], name) for name in names)
 
 
+def forget_crossings(surface) -> None:
+    """Drop what ``surface`` remembers of a run's crossings (a mesh input's
+    faces of its exact crossings), if anything."""
+    forget = getattr(surface, "forget_crossings", None)
+    if forget is not None:
+        forget()
+
+
 def _fresh(m: Mesher) -> None:
     """A new core, samples and pipeline (at the start, and for a repair)."""
     surface = m.surface
-    forget = getattr(surface, "forget_crossings", None)
-    if forget is not None:
-        forget()  # a run must not depend on an earlier run's crossings
+    forget_crossings(surface)  # a run must not depend on an earlier run's crossings
     m.rdt = core.RestrictedDelaunay(surface.centre, surface.radius)
     box = clip_box(surface)
     if box is not None:  # checked by mesh_surface: inside the ball, with a boundary

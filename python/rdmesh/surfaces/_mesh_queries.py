@@ -149,7 +149,7 @@ class MeshQueries:
         return self._winding_factor(pts)
 
     def forget_crossings(self) -> None:
-        """Forget the faces of the last run's crossings (a run starts)."""
+        """Forget the faces of the crossings found so far (a run starts or ends)."""
         self._on_face.clear()
 
     def crossing_faces(self, points: np.ndarray) -> np.ndarray:
