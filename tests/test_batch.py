@@ -348,8 +348,10 @@ def test_transport_gives_a_surface_a_new_lock_and_a_mesh_surface_its_triangles()
 
     mesh = rdmesh.MeshSurface(trimesh.creation.icosphere(subdivisions=2), name="ico")
     mesh.name = "renamed after construction"
+    mesh.exact_crossings(np.array([[[0.0, 0.0, 0.0], [2.0, 0.1, 0.05]]]))  # one face held
     back = transport.loads(transport.dumps(mesh))
     assert type(back) is rdmesh.MeshSurface
+    assert mesh._on_face.size == 1 and back._on_face.size == 0  # a table of its own
     assert back.name == "renamed after construction"
     assert back.f.__self__ is back  # its bound methods point at the new surface
     assert np.array_equal(back(points), mesh(points))

@@ -173,15 +173,20 @@ def test_segment_hits_refuse_bad_segments():
     assert hit.tolist() == [0] and np.isnan(t).all()
 
 
+def torus_and_segments(seed: int) -> tuple[rdmesh.MeshSurface, np.ndarray]:
+    """A marching-cubes torus and 2000 random segments about its vertices."""
+    surface = rdmesh.MeshSurface(mc_mesh(torus_f, -1.6, 1.6, 32))
+    rng = np.random.default_rng(seed)
+    v = surface.vertices
+    a = v[rng.integers(0, len(v), 2000)] + rng.normal(0, 0.1, (2000, 3))
+    return surface, np.stack([a, a + rng.normal(0, 0.2, (2000, 3))], axis=1)
+
+
 def test_exact_crossings_match_the_sampled_search():
     from rdmesh.refine.facets import _sampled_crossings
     from rdmesh.sampling.roots import Crossings
 
-    surface = rdmesh.MeshSurface(mc_mesh(torus_f, -1.6, 1.6, 32))
-    rng = np.random.default_rng(12)
-    v = surface.vertices
-    a = v[rng.integers(0, len(v), 2000)] + rng.normal(0, 0.1, (2000, 3))
-    seg = np.stack([a, a + rng.normal(0, 0.2, (2000, 3))], axis=1)
+    surface, seg = torus_and_segments(12)
     *found, cos, unsure = surface.exact_crossings(seg)
     cr = Crossings(*found)
     assert not unsure.any() and len(cr.segment) > 500
@@ -368,11 +373,8 @@ def test_point_map_keeps_the_smallest_id_per_exact_point():
 def test_crossings_give_their_faces_and_the_faces_normals():
     from rdmesh.surfaces._mesh_queries import queried_gradient
 
-    surface = rdmesh.MeshSurface(mc_mesh(torus_f, -1.6, 1.6, 32))
-    rng = np.random.default_rng(14)
+    surface, seg = torus_and_segments(14)
     v = surface.vertices
-    a = v[rng.integers(0, len(v), 2000)] + rng.normal(0, 0.1, (2000, 3))
-    seg = np.stack([a, a + rng.normal(0, 0.2, (2000, 3))], axis=1)
     _, _, point, _, _, _ = surface.exact_crossings(seg)
     face = surface.crossing_faces(point)
     assert len(point) > 500 and (face >= 0).all()

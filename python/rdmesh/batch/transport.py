@@ -24,8 +24,9 @@ from ..surfaces.volume import VolumeSurface
 _LOCKS = (type(threading.Lock()), type(threading.RLock()))
 
 #: Attributes of a MeshSurface that are its constructor's arguments or that the
-#: constructor rebuilds on the worker (the C++ structure, the lock, the k-d tree).
-_REBUILT = ("vertices", "faces", "_core", "_lock", "_kdtree")
+#: constructor rebuilds on the worker (the C++ structure, the lock, the k-d tree,
+#: the table of its crossings' faces).
+_REBUILT = ("vertices", "faces", "_core", "_lock", "_kdtree", "_on_face")
 
 
 class NotSendable(TypeError):

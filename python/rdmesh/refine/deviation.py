@@ -83,8 +83,8 @@ class DeviationStage:
     """Input points and output edge midpoints farther from the other surface
     than ``bound`` (see the module's docstring).
 
-    ``surface`` is a closed :class:`~rdmesh.MeshSurface` (its ``vertices``, ``crossing_faces``
-    and ``closest_points``); ``balls`` the protecting balls, if any.
+    ``surface`` is a closed :class:`~rdmesh.MeshSurface` (its ``vertices``,
+    ``closest_points`` and ``crossing_faces``); ``balls`` the protecting balls, if any.
 
     After the first check, only what changed is measured again: the input is
     fixed, so an output edge found within the bound stays so; an input point's
