@@ -6,6 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import rdmesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rdmesh.core import MeshDistance
 from rdmesh.refine.mesher import Budget
 
@@ -368,6 +370,35 @@ def test_point_map_keeps_the_smallest_id_per_exact_point():
         m.add(p[:2], np.array([1]))
     m.clear()
     assert m.size == 0 and (m.get(p) == -1).all()
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    calls=st.lists(
+        st.lists(st.tuples(st.integers(0, 40), st.integers(0, 9), st.booleans()), max_size=80),
+        max_size=6,
+    )
+)
+def test_point_map_holds_what_a_dict_of_smallest_ids_holds(calls):
+    """Any calls of add, in any order and with repeats (of 41 points, some
+    with -0.0 for 0.0), hold the smallest id given for each point."""
+    from rdmesh.core import PointMap
+
+    base = np.random.default_rng(5).normal(size=(41, 3))
+    base[::4, 1] = 0.0
+    m, want = PointMap(), {}
+    for call in calls:
+        if not call:
+            continue
+        idx, ids, negate = (np.array(x) for x in zip(*call, strict=True))
+        pts = base[idx].copy()
+        pts[negate & (pts == 0.0).any(axis=1), 1] *= -1.0  # 0.0 -> -0.0 where it is 0
+        m.add(pts, ids)
+        for i, k in zip(idx.tolist(), ids.tolist(), strict=True):
+            want[i] = min(k, want.get(i, k))
+    got = m.get(base)
+    assert m.size == len(want)
+    assert got.tolist() == [want.get(i, -1) for i in range(len(base))]
 
 
 def test_crossings_give_their_faces_and_the_faces_normals():
