@@ -249,6 +249,25 @@ def test_row_sets_agree_with_row_index(monkeypatch, bits):
     assert not _vectors.RowSet(np.zeros((0, 3), np.int64)).contains(rows).any()
 
 
+def test_a_row_set_merges_added_keys_and_falls_back_past_the_key_bits():
+    from rdmesh._vectors import RowSet, row_index
+
+    rng = np.random.default_rng(2)
+    table = np.unique(np.sort(rng.integers(0, 1000, (3000, 2)), axis=1), axis=0)
+    rs = RowSet(table[:10])
+    for part in np.array_split(rng.permutation(np.arange(10, len(table))), 4):
+        rs.add(table[part])
+        assert rs.keys is not None and np.all(np.diff(rs.keys) > 0)  # sorted, each once
+    probe = np.sort(rng.integers(0, 1000, (2000, 2)), axis=1)
+    np.testing.assert_array_equal(rs.contains(probe), row_index(probe, table) >= 0)
+    big = np.array([[5, 2**40]])  # past 31 bits a column: the rows themselves
+    rs.add(big)
+    assert rs.keys is None
+    assert rs.contains(np.concatenate([big, table[:3], [[5, 2**41]]])).tolist() == [
+        True, True, True, True, False,
+    ]  # fmt: skip
+
+
 def test_row_keys_keep_the_rows_order():
     from rdmesh._vectors import row_keys
 

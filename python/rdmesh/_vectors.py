@@ -82,7 +82,16 @@ class RowSet:
 
     def add(self, rows: np.ndarray) -> None:
         """Add ``rows`` (not already in the set)."""
-        self._hold(np.concatenate([self.rows, np.asarray(rows, np.int64)]))
+        rows = np.asarray(rows, np.int64).reshape(-1, self.rows.shape[1])
+        new = row_keys(rows) if self.keys is not None else None
+        if new is None:
+            self._hold(np.concatenate([self.rows, rows]))
+            return
+        # Two sorted runs: the stable sort (timsort) merges them in linear time.
+        new.sort()
+        self.rows = np.concatenate([self.rows, rows])
+        self.keys = np.concatenate([self.keys, new])
+        self.keys.sort(kind="stable")
 
     def _hold(self, rows: np.ndarray) -> None:
         self.rows, self.keys = rows, row_keys(rows)

@@ -181,14 +181,11 @@ class DeviationStage:
         if len(edges) == 0:
             return np.zeros(0), np.zeros((0, 3))
         on_face = _on_one_face(self.surface, V, edges)
-        self._ok_edges.add(edges[on_face])
-        edges = edges[~on_face]
-        if len(edges) == 0:
-            return np.zeros(0), np.zeros((0, 3))
+        settled, edges = edges[on_face], edges[~on_face]
         probes = 0.5 * (V[edges[:, 0]] + V[edges[:, 1]])
         near, _ = self.surface.closest_points(probes)
         d = np.linalg.norm(probes - near, axis=1)
-        self._ok_edges.add(edges[d <= self.bound])
+        self._ok_edges.add(np.concatenate([settled, edges[d <= self.bound]]))
         return d, near
 
     def _input_to_output(self, V: np.ndarray, tri: np.ndarray, tree) -> np.ndarray:
