@@ -89,6 +89,37 @@ class _Hits:
         return hit, t * self.length[hit], point, rising, cos, self.unsure
 
 
+class CrossingFaces:
+    """The faces of the crossings a :class:`~rdmesh.MeshSurface` reported
+    (``_Hits.crossings`` records them in its ``_on_face``, a
+    ``core.PointMap``): facet centres and samples are crossings, so their
+    gradients need no closest-point query."""
+
+    def forget_crossings(self) -> None:
+        """Forget the faces of the crossings found so far.
+
+        :func:`rdmesh.mesh_surface` calls it when a run starts, so that no run
+        depends on an earlier one, and when it ends, to free the table.
+        """
+        self._on_face.clear()
+
+    def crossing_faces(self, points: np.ndarray) -> np.ndarray:
+        """The faces that this run's exact crossings lie on.
+
+        Parameters
+        ----------
+        points : (N, 3) array
+
+        Returns
+        -------
+        (N,) int64 array
+            The face each point lies on where it is, bit for bit, an exact
+            crossing this surface reported during the current run (of a dual
+            Voronoi edge, a seeding edge or a ray); -1 for any other point.
+        """
+        return self._on_face.get(np.ascontiguousarray(points, np.float64).reshape(-1, 3))
+
+
 #: Open meshes: an end whose winding number is farther than this from a whole
 #: number is near a hole (where ``f``'s zero set leaves the faces).
 WINDING_CLEAR = 0.125

@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 
 from .._errors import MeshInputError
 from ..core import MeshDistance, PointMap
-from ._mesh_crossings import hole_balls, segment_crossings, winding_crossings
+from ._mesh_crossings import CrossingFaces, hole_balls, segment_crossings, winding_crossings
 from ._mesh_input import is_closed_oriented, orient_normals, winding_ambiguity
 
 #: Below this distance (times the bounding radius) the gradient is the normal
@@ -46,7 +46,7 @@ def _points(points: np.ndarray) -> np.ndarray:
     return pts
 
 
-class MeshQueries:
+class MeshQueries(CrossingFaces):
     """The signed distance to a mesh, its gradient, closest points and winding number.
 
     A base of :class:`~rdmesh.MeshSurface`, which sets ``vertices``, ``faces``
@@ -147,15 +147,6 @@ class MeshQueries:
                 [self._core.side(pts[i : i + _CHUNK]) for i in range(0, len(pts), _CHUNK)]
             ).astype(np.float64)
         return self._winding_factor(pts)
-
-    def forget_crossings(self) -> None:
-        """Forget the faces of the crossings found so far (a run starts or ends)."""
-        self._on_face.clear()
-
-    def crossing_faces(self, points: np.ndarray) -> np.ndarray:
-        """``(N,)``: the face each of ``points`` lies on where it is an exact
-        crossing found in this run (bit for bit), else -1."""
-        return self._on_face.get(_points(points))
 
     def _gradient(self, points: np.ndarray) -> np.ndarray:
         pts = _points(points)
