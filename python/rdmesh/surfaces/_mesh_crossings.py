@@ -49,7 +49,7 @@ def segment_crossings(surface, seg: np.ndarray):
     same = hit[1:] == hit[:-1]
     h.unsure[hit[1:][same & ((dn[1:] > 0) == (dn[:-1] > 0))]] = True
     keep = ~h.unsure[hit]
-    return h.crossings(surface, keep, dn[keep] > 0, np.abs(dn[keep]))
+    return h.crossings(keep, dn[keep] > 0, np.abs(dn[keep]))
 
 
 @dataclass
@@ -65,6 +65,7 @@ class _Hits:
     t: np.ndarray  # (m,) the hit at start + t d
     face: np.ndarray  # (m,)
     unsure: np.ndarray  # (k,) bool
+    on_face: object  # the surface's table of its crossings' faces (core.PointMap)
 
     @classmethod
     def of(cls, surface, seg: np.ndarray) -> _Hits:
@@ -78,14 +79,14 @@ class _Hits:
         s = t * length[hit]
         same = hit[1:] == hit[:-1]
         unsure[hit[1:][same & (s[1:] - s[:-1] <= HIT_MERGE * surface.radius)]] = True
-        return cls(start, d, length, hit, t, face, unsure)
+        return cls(start, d, length, hit, t, face, unsure, surface._on_face)
 
-    def crossings(self, surface, keep: np.ndarray, rising: np.ndarray, cos: np.ndarray):
-        """The hits ``keep`` as crossings: :func:`segment_crossings`' tuple.
-        ``surface`` remembers the face of each (its ``crossing_faces``)."""
+    def crossings(self, keep: np.ndarray, rising: np.ndarray, cos: np.ndarray):
+        """The hits ``keep`` as crossings: :func:`segment_crossings`' tuple;
+        the surface's table keeps the face of each (``crossing_faces``)."""
         hit, t = self.hit[keep], self.t[keep]
         point = self.start[hit] + t[:, None] * self.d[hit]
-        surface._on_face.add(point, self.face[keep])
+        self.on_face.add(point, self.face[keep])
         return hit, t * self.length[hit], point, rising, cos, self.unsure
 
 
@@ -209,7 +210,7 @@ def winding_crossings(surface, seg: np.ndarray):
     cross = inside_before != (after > 0.5)
     keep = np.zeros(len(hit), bool)
     keep[sel[cross]] = True
-    return h.crossings(surface, keep, inside_before[cross], np.abs(dn[keep]))
+    return h.crossings(keep, inside_before[cross], np.abs(dn[keep]))
 
 
 def _cumsum_by(group: np.ndarray, x: np.ndarray) -> np.ndarray:

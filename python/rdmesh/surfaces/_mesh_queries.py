@@ -154,8 +154,6 @@ class MeshQueries(CrossingFaces):
         # samples are crossings, so most points need no query.
         face = self._on_face.get(pts)
         known = face >= 0
-        if known.all():
-            return self._normals[face]
         g = np.empty_like(pts)
         g[known] = self._normals[face[known]]
         g[~known] = queried_gradient(self, pts[~known])
