@@ -403,3 +403,29 @@ def test_auto_feature_angle_leaves_out_noise(caplog):
         auto = rdmesh.MeshSurface((verts, faces))
     assert len(auto.sharp_edges) == 0 and auto.sharp_curves == []
     assert "look like noise" in caplog.text
+
+
+def test_auto_feature_angle_leaves_out_roughness(caplog):
+    """A coarse, bumpy sphere: its sharpest edges are the tail of a spread of
+    dihedral angles, not creases; a cube's edges stand apart and are kept."""
+    import trimesh
+
+    from rdmesh.features.sharp_edges import ROUGH_RATIO
+
+    m = trimesh.creation.icosphere(subdivisions=3)
+    u = np.asarray(m.vertices)
+    theta, phi = np.arccos(u[:, 2]), np.arctan2(u[:, 1], u[:, 0])
+    verts = u * (1 + 0.3 * np.sin(4 * theta) * np.cos(4 * phi))[:, None]
+    faces = np.asarray(m.faces)
+    explicit = rdmesh.MeshSurface((verts, faces), feature_angle=60)
+    assert len(explicit.sharp_curves) >= 4
+    # The rule's premise on this input: many more edges 30-60 degrees than 60 or more.
+    angles = np.degrees(trimesh.Trimesh(verts, faces, process=False).face_adjacency_angles)
+    near, sharp = np.count_nonzero((angles >= 30) & (angles < 60)), np.count_nonzero(angles >= 60)
+    assert near > ROUGH_RATIO * sharp > 0
+    with caplog.at_level("WARNING", logger="rdmesh"):
+        auto = rdmesh.MeshSurface((verts, faces))
+    assert len(auto.sharp_edges) == 0 and auto.sharp_curves == []
+    assert "roughness" in caplog.text
+    cube = trimesh.creation.box(extents=(2.0, 2.0, 2.0))
+    assert len(rdmesh.MeshSurface((cube.vertices, cube.faces)).sharp_curves) == 12

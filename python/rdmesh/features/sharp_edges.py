@@ -20,6 +20,13 @@ log = logging.getLogger("rdmesh")
 def sharp_edges(faces: np.ndarray, normals: np.ndarray, angle: float) -> np.ndarray:
     """Edges ``(E, 2)`` (sorted vertex pairs) shared by exactly two faces whose
     unit ``normals`` differ by at least ``angle`` degrees."""
+    e, cos = _edge_cosines(faces, normals)
+    return e[cos <= np.cos(np.radians(angle)) + 1e-12]
+
+
+def _edge_cosines(faces: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The edges shared by exactly two faces (sorted vertex pairs) and the
+    cosine of the angle between those faces' unit ``normals``."""
     f = np.asarray(faces, dtype=np.int64)
     e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
     owner = np.tile(np.arange(len(f)), 3)
@@ -37,9 +44,7 @@ def sharp_edges(faces: np.ndarray, normals: np.ndarray, angle: float) -> np.ndar
         triple |= (prv >= 0) & np.all(e[np.maximum(prv, 0)] == e[first], axis=1)
     first = first[~triple]
     na, nb = normals[owner[first]], normals[owner[first + 1]]
-    cos = np.einsum("ij,ij->i", na, nb)
-    sharp = cos <= np.cos(np.radians(angle)) + 1e-12
-    return e[first[sharp]]
+    return e[first], np.einsum("ij,ij->i", na, nb)
 
 
 def chain_edges(
@@ -121,11 +126,33 @@ def chain_edges(
 
 #: Sharp-edge chains shorter than this (edges) with a dangling end are noise.
 MIN_CHAIN_EDGES = 4
+#: feature_angle="auto": sharp edges are the surface's roughness, not creases,
+#: when more than ROUGH_RATIO times as many edges are nearly as sharp (normals
+#: between half the angle and the angle apart). A CAD part's creases stand
+#: apart (almost no edge between 30 and 60 degrees); a coarse organic mesh's
+#: sharpest edges are the tail of a spread (the cow, a cortical white surface:
+#: 3.3 and 6.5 times; a marching-cubes union of two tori: 1.04).
+ROUGH_RATIO = 2.0
 #: feature_angle="auto": this angle, and no sharp edges at all when they look
 #: like noise: at least NOISE_CURVES curves, the median at most NOISE_CHAIN
 #: edges long, and fewer than NOISE_SHARE of all edges sharp (a CAD part's
 #: creases are long, or a large share of its edges).
 AUTO_FEATURE_ANGLE, NOISE_CURVES, NOISE_CHAIN, NOISE_SHARE = 60.0, 50, 2, 0.2
+
+
+def _rough(cos: np.ndarray, sharp: np.ndarray, angle: float) -> bool:
+    """Whether the sharp edges look like the surface's roughness (see
+    :data:`ROUGH_RATIO`); logs a warning when they do."""
+    near = int(np.count_nonzero(~sharp & (cos <= np.cos(np.radians(angle / 2)))))
+    count = int(np.count_nonzero(sharp))
+    if count == 0 or near <= ROUGH_RATIO * count:
+        return False
+    log.warning(
+        "MeshSurface: %d sharp edges look like the surface's roughness, not creases: %d "
+        "more edges are nearly as sharp (normals %g to %g degrees apart); none are kept "
+        "(give feature_angle= to keep them)", count, near, angle / 2, angle,
+    )  # fmt: skip
+    return True
 
 
 def feature_angle_of(angle) -> float | None:
@@ -153,7 +180,8 @@ def sharp_curves(
     edges, and their chains as polylines (a closed loop repeats its first
     point). Chains of fewer than :data:`MIN_CHAIN_EDGES` edges with a dangling
     end are left out as noise; with ``feature_angle="auto"`` everything is
-    left out when the whole looks like noise (see :data:`NOISE_CURVES`).
+    left out when the whole looks like noise (see :data:`NOISE_CURVES`) or
+    like the surface's roughness (see :data:`ROUGH_RATIO`).
     """
     auto = isinstance(feature_angle, str) and feature_angle == "auto"
     angle = AUTO_FEATURE_ANGLE if auto else feature_angle_of(feature_angle)
@@ -165,7 +193,11 @@ def sharp_curves(
         vertices[faces[:, 2]] - vertices[faces[:, 0]],
     )
     n = a / np.maximum(np.linalg.norm(a, axis=1), 1e-300)[:, None]
-    edges = sharp_edges(faces, n, angle)
+    edges, cos = _edge_cosines(faces, n)
+    sharp = cos <= np.cos(np.radians(angle)) + 1e-12
+    if auto and _rough(cos, sharp, angle):
+        return none
+    edges = edges[sharp]
     chains, closed = chain_edges(vertices, edges, angle)
     deg = np.bincount(edges.ravel(), minlength=len(vertices))
     keep = [

@@ -45,7 +45,9 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
         remesh by protecting balls (:mod:`rdmesh.features`). "auto": 60
         degrees, unless the sharp edges look like noise (at least 50 curves,
         the median one at most 2 edges long, and fewer than 20 % of the edges
-        sharp, as on a noisy scan): then none, with a warning. None: none.
+        sharp, as on a noisy scan) or like the surface's roughness (more than
+        twice as many edges with normals 30 to 60 degrees apart, as on a
+        coarse organic mesh): then none, with a warning. None: none.
     features : list of (m, 3) array_like, or "none", optional
         More feature curves (see :class:`ImplicitSurface`); "none" protects
         nothing, sharp edges included.
