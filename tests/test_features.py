@@ -409,7 +409,6 @@ def test_auto_feature_angle_leaves_out_roughness(caplog):
     """A coarse, bumpy sphere: its sharpest edges are the tail of a spread of
     dihedral angles, not creases; a cube's edges stand apart and are kept."""
     import trimesh
-
     from rdmesh.features.sharp_edges import ROUGH_RATIO
 
     m = trimesh.creation.icosphere(subdivisions=3)

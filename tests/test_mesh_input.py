@@ -91,6 +91,42 @@ def test_a_closed_mesh_has_no_self_intersections():
     assert ms.sign_method == "side"
 
 
+def _touching_at_a_vertex():
+    """Two spheres whose vertices at x = 1 coincide (merged when read): the
+    surface touches itself at that point."""
+    a, b = sphere_mesh((0, 0, 0), 1.0), sphere_mesh((2, 0, 0), 1.0)
+    ia, ib = int(np.argmax(a[0][:, 0])), int(np.argmin(b[0][:, 0]))
+    vb = b[0].copy()
+    vb[ib] = a[0][ia]
+    return np.concatenate([a[0], vb]), np.concatenate([a[1], b[1] + len(a[0])])
+
+
+def test_pinched_vertices_are_split_one_copy_per_fan():
+    from rdmesh.surfaces._mesh_input import clean, split_pinches
+
+    v, f = _touching_at_a_vertex()
+    merged_v, merged_f = clean(v, f)
+    # The equal vertices were merged, and the pinch split again: as many
+    # vertices as the input, each face on the same points.
+    assert len(merged_v) == len(v)
+    assert np.allclose(np.sort(merged_v[merged_f].reshape(-1, 9), axis=0),
+                       np.sort(v[f].reshape(-1, 9), axis=0))  # fmt: skip
+    # Each vertex's faces form one fan: every edge in two faces, V - E + F = 2 a component.
+    edges = np.unique(np.sort(merged_f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    assert len(merged_v) - len(edges) + len(merged_f) == 4
+    unchanged = split_pinches(*sphere_mesh((0, 0, 0), 1.0))
+    assert len(unchanged[0]) == len(sphere_mesh((0, 0, 0), 1.0)[0])
+
+
+def test_a_surface_touching_itself_at_a_point_is_reported():
+    ms = rdmesh.MeshSurface(_touching_at_a_vertex())
+    # Split, the mesh is a closed manifold; CGAL finds the faces that touch.
+    assert len(ms.self_intersections) > 0
+    where = ms.vertices[ms.faces[ms.self_intersections.ravel()]].mean(axis=1)
+    assert np.all(np.abs(where[:, 0] - 1.0) < 0.3)
+    assert not ms.topology_known
+
+
 def test_self_intersecting_input_is_remeshed_and_marked_incomplete():
     ms = rdmesh.MeshSurface(overlapping_spheres())
     mesh = rdmesh.mesh_surface(ms, radius_bound=0.15, distance_bound=0.015)

@@ -72,7 +72,7 @@ def test_without_dropping_the_gap_holds_tiny_components(unpruned):
 
 def test_dropped_pockets_are_reported_and_the_rest_is_kept(pruned, unpruned):
     rep = pruned.report["pockets"]
-    assert rep is not None and rep["dropped"] >= 1
+    assert rep is not None and rep["dropped"] >= 1 and rep["ruled_out"] is True
     assert rep["largest"] < RADIUS_BOUND
     assert "output components smaller than the size bound" in pruned.report["statement"]
     assert not pruned.report["tbp_holds"]
@@ -91,6 +91,21 @@ def test_pruned_mesh_is_closed_without_unused_vertices(pruned):
     assert len(np.unique(pruned.faces)) == len(pruned.vertices)
     chi, _ = component_topology(pruned.faces, len(pruned.vertices))
     assert chi == pruned.report["euler"]
+
+
+def test_pockets_of_a_self_intersecting_input_are_dropped_below_the_bound(monkeypatch):
+    """Two spheres overlapping by 1e-5: the input intersects itself, so its
+    topology is unknown; the union's tiny pockets are still dropped (below
+    the size bound), and the report says the topology did not rule them out."""
+    overlapping = _two_spheres(-1e-5)
+    assert not overlapping.topology_known and len(overlapping.self_intersections)
+    mesh = _remesh(overlapping)
+    rep = mesh.report["pockets"]
+    assert rep is not None and rep["dropped"] >= 1 and rep["ruled_out"] is False
+    assert mesh.report["components"] == 1 and mesh.report["euler"] == [2]
+    assert "winding number" in mesh.report["statement"]
+    monkeypatch.setattr(mesher, "_pockets", lambda m, faces: None)
+    assert _remesh(overlapping).report["components"] > 1
 
 
 def test_separated_input_keeps_both_components():

@@ -2,11 +2,11 @@
 triangle mesh, and what can be told about it before meshing.
 
 A mesh is read as ``(vertices, faces)`` (:func:`as_arrays`), its equal vertices
-merged and degenerate faces dropped (:func:`clean`), and oriented so that its
-signed volume is positive (:func:`oriented_mesh`). Then: its bounding sphere,
-its folds (:func:`fold_edges`), whether the C++ side test applies
-(:func:`is_closed_oriented`), how ambiguous the winding number is next to it
-(:func:`winding_ambiguity`), and which way its face normals point
+merged, degenerate faces dropped and pinched vertices split (:func:`clean`), and
+oriented so that its signed volume is positive (:func:`oriented_mesh`). Then:
+its bounding sphere, its folds (:func:`fold_edges`), whether the C++ side test
+applies (:func:`is_closed_oriented`), how ambiguous the winding number is next
+to it (:func:`winding_ambiguity`), and which way its face normals point
 (:func:`orient_normals`).
 """
 
@@ -17,6 +17,8 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from .._errors import MeshInputError
 from ..core import MeshDistance
@@ -88,7 +90,8 @@ def as_arrays(mesh: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 def clean(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Merge equal vertices, drop faces that repeat a vertex and unused vertices."""
+    """Merge equal vertices, drop faces that repeat a vertex and unused vertices,
+    and split pinched vertices (:func:`split_pinches`)."""
     v, inverse = np.unique(v, axis=0, return_inverse=True)
     f = inverse.reshape(-1)[f]
     keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
@@ -96,7 +99,51 @@ def clean(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if len(f) == 0:
         raise MeshInputError("every face of the mesh has zero area (repeated vertices)")
     used, f = np.unique(f, return_inverse=True)
-    return v[used], f.reshape(-1, 3).astype(np.int64)
+    return split_pinches(v[used], f.reshape(-1, 3).astype(np.int64))
+
+
+def split_pinches(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Give each fan of faces about a pinched vertex its own copy of the vertex.
+
+    A vertex is pinched when its faces form more than one fan (faces joined
+    through the edges at the vertex), as where merging equal vertices joined
+    two sheets at a point (CGAL's ``duplicate_non_manifold_vertices``). The
+    first fan (by face order) keeps the vertex; copies are appended. Edges of
+    more than two faces are left as they are.
+    """
+    m = len(f)
+    corner_vertex = f.reshape(-1)
+    # Each face edge (corner k to corner k + 1) with its undirected key.
+    start = np.arange(3 * m)
+    end = 3 * (start // 3) + (start % 3 + 1) % 3
+    a, b = corner_vertex[start], corner_vertex[end]
+    low_first = a < b
+    low = np.where(low_first, start, end)  # the corner at the edge's lower vertex
+    high = np.where(low_first, end, start)
+    key = np.minimum(a, b) * len(v) + np.maximum(a, b)
+    order = np.argsort(key, kind="stable")
+    key, low, high = key[order], low[order], high[order]
+    # Join the corners of consecutive occurrences of one edge (at both ends).
+    same = np.flatnonzero(key[1:] == key[:-1])
+    rows = np.concatenate([low[same], high[same]])
+    cols = np.concatenate([low[same + 1], high[same + 1]])
+    graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(3 * m, 3 * m))
+    _, fan = connected_components(graph, directed=False)
+    # Each (vertex, fan) pair once; a vertex's fans beyond its first are pinches.
+    pairs, first_corner, inverse = np.unique(
+        corner_vertex.astype(np.int64) * (3 * m) + fan, return_index=True, return_inverse=True
+    )
+    owner = corner_vertex[first_corner]
+    extra = np.r_[False, owner[1:] == owner[:-1]]
+    if not extra.any():
+        return v, f
+    new_id = owner.copy()
+    new_id[extra] = len(v) + np.arange(int(extra.sum()))
+    log.info(
+        "MeshSurface: %d vertices where the faces meet only at a point were split, one "
+        "copy for each fan of faces", len(np.unique(owner[extra])),
+    )  # fmt: skip
+    return np.concatenate([v, v[owner[extra]]]), new_id[inverse.reshape(-1)].reshape(-1, 3)
 
 
 def area_vectors(v: np.ndarray, f: np.ndarray) -> np.ndarray:

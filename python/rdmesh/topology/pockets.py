@@ -1,16 +1,20 @@
-"""Pockets the input's topology rules out, dropped from a remesh (issue 30).
+"""Pockets dropped from a remesh: tiny components on a covered input (issue 30).
 
 Where two sheets of an input mesh come closer than the spacing floor (the
-banks of a brain's sulcus), the final complex can hold tiny closed
-components: a Delaunay cell or two of the thin gap, sealed off by the
-relabelling of pinched vertices (:mod:`rdmesh.topology.relabel`). An input
-that is a closed, non-self-intersecting mesh has a known topology: each of
-its components is one closed surface. So an output component that is smaller
-than the size bound and lies on input components that a larger output
-component already covers is not part of that topology, and is dropped.
-Only inputs whose components are known (:meth:`MeshSurface.input_components`)
-are pruned; volumes and expressions, whose small components can be real,
-never are.
+banks of a brain's sulcus, a fold where a model's faces cross), the final
+complex can hold tiny closed components: a Delaunay cell or two of the thin
+gap, sealed off by the relabelling of pinched vertices
+(:mod:`rdmesh.topology.relabel`). An input that is a closed,
+non-self-intersecting mesh has a known topology: each of its components is
+one closed surface. So an output component that is smaller than the size
+bound and lies on input components that a larger output component already
+covers is not part of that topology, and is dropped. On an open or
+self-intersecting input (its solid comes from the winding number) such a
+component may be a piece of that solid, but one smaller than the size bound,
+which the refinement cannot resolve there (its points are refused below the
+spacing floor); it is dropped as well, and the report says which reason
+applies. Only mesh inputs (:meth:`MeshSurface.input_components`) are pruned;
+volumes and expressions, whose small components can be real, never are.
 """
 
 from __future__ import annotations
@@ -37,12 +41,25 @@ class Pockets:
     centres : (k, 3) the centroid of each dropped component.
     sizes : (k,) the largest extent of each along an axis.
     faces : number of faces dropped.
+    ruled_out : whether the input's known topology rules them out (a closed,
+        non-self-intersecting input), or they are only below the size bound.
     """
 
     keep: np.ndarray
     centres: np.ndarray
     sizes: np.ndarray
     faces: int
+    ruled_out: bool = True
+
+
+def pocket_reason(ruled_out: bool) -> str:
+    """Why pockets were dropped, for logs and the report."""
+    if ruled_out:
+        return "the closed input's topology rules them out"
+    return (
+        "the input is open or intersects itself, so they may be pieces of the solid its "
+        "winding number bounds, too small for the size bound to resolve"
+    )
 
 
 def drop_pockets(
@@ -50,6 +67,7 @@ def drop_pockets(
     faces: np.ndarray,
     input_components: Callable[[np.ndarray], np.ndarray],
     size: Callable[[np.ndarray], np.ndarray],
+    ruled_out: bool = True,
 ) -> Pockets | None:
     """The output components that are pockets; None when there are none.
 
@@ -60,6 +78,7 @@ def drop_pockets(
     input_components : maps ``(k, 3)`` points on the input to the input
         component they lie on, ``(k,)`` int.
     size : the size bound at ``(k, 3)`` points, ``(k,)``.
+    ruled_out : recorded in the result (see :class:`Pockets`).
 
     A component is a pocket when it is the largest output component (by
     faces; the first on ties) of none of the input components its vertices
@@ -100,4 +119,5 @@ def drop_pockets(
         centres=centre[pocket],
         sizes=extent[pocket],
         faces=int((~keep).sum()),
+        ruled_out=ruled_out,
     )

@@ -59,7 +59,7 @@ from ..sampling.critical import CriticalPoints
 from ..sampling.discovery import Discovery
 from ..sampling.probes import Probes
 from .complex import component_topology, is_closed_manifold
-from .pockets import Pockets
+from .pockets import Pockets, pocket_reason
 from .relabel import Relabelled
 from .singular import singular_points
 from .snapshot import Snapshot
@@ -148,9 +148,11 @@ def topology_report(
     out because their dual edge crossed the surface an even number of times
     below the spacing floor: Voronoi-edge violations. ``relabelled`` says
     which faces differ from the restricted facets (pinched vertices made one
-    disk); ``pockets`` which components the input's known topology
-    ruled out. With either, the mesh's closedness is read from ``faces`` and
-    the topological-ball property is not claimed (the faces are not the
+    disk); ``pockets`` which small components on a covered input component
+    were dropped, and whether the input's known topology ruled them out
+    (``ruled_out``; otherwise the input is open or self-intersecting). With
+    either, the mesh's closedness is read from ``faces`` and the
+    topological-ball property is not claimed (the faces are not the
     restricted Delaunay facets).
     """
     tests: dict[str, dict[str, Any]] = {}
@@ -281,13 +283,14 @@ def _relabelled(r: Relabelled, link: float) -> dict[str, Any]:
 
 
 def _pockets(p: Pockets, link: float) -> dict[str, Any]:
-    """``report["pockets"]``: the output components dropped because the
-    input's topology rules them out."""
+    """``report["pockets"]``: the output components dropped as pockets, and
+    whether the input's known topology rules them out (``ruled_out``)."""
     return {
         "dropped": len(p.centres),
         "faces": p.faces,
         "largest": float(p.sizes.max()),
         "regions": regions(p.centres, link),
+        "ruled_out": p.ruled_out,
     }
 
 
@@ -496,7 +499,7 @@ def _statement(rep: dict[str, Any]) -> str:
                 f"output components smaller than the size bound were dropped: "
                 f"{pockets['dropped']} (at most {pockets['largest']:.3g} across, "
                 f"{describe_regions(pockets['regions'])}), on input components that a larger "
-                "output component covers: the closed input's topology rules them out"
+                f"output component covers: {pocket_reason(pockets['ruled_out'])}"
             )
         if rep["unresolved"]:
             why.append(
