@@ -501,3 +501,78 @@ def test_a_run_keeps_its_crossings_faces_only_while_it_runs():
     second = rdmesh.mesh_surface(surface, radius_bound=0.1)
     assert np.array_equal(first.vertices, second.vertices)
     assert np.array_equal(first.faces, second.faces)
+
+
+# -- closed meshes that intersect themselves: w beside the faces ----------------------
+
+
+@pytest.fixture(scope="module")
+def overlapping():
+    return rdmesh.MeshSurface(overlapping_spheres())
+
+
+def test_face_sides_of_overlapping_spheres(overlapping):
+    """Faces of one sphere inside the other have w = 1 in front and 2 behind
+    (no hit on them is a crossing); the others 0 and 1; the crossing faces are
+    left to the winding number."""
+    sides = overlapping._face_sides
+    v, f = overlapping.vertices, overlapping.faces
+    c = v[f].mean(axis=1)
+    first = np.arange(len(f)) < len(sphere_mesh((0, 0, 0), 1.0)[1])
+    # The other sphere's centre, by each face's sphere; clearly inside or outside it.
+    other = np.where(first[:, None], [1.2, 0.0, 0.0], [0.0, 0.0, 0.0])
+    depth = np.linalg.norm(c - other, axis=1)
+    assert np.all(sides.code[depth < 0.9] == 0) and np.all(sides.w[depth < 0.9] == [1, 2])
+    assert np.all(sides.code[depth > 1.1] == 1) and np.all(sides.w[depth > 1.1] == [0, 1])
+    assert np.all(sides.code[overlapping.self_intersections.ravel()] == -1)
+    assert np.isnan(sides.w[sides.code == -1]).all()
+    # A closed mesh that does not intersect itself has the side test instead.
+    assert getattr(rdmesh.MeshSurface(sphere_mesh((0, 0, 0), 1.0)), "_face_sides", None) is None
+
+
+def _random_segments(v, n, seed):
+    rng = np.random.default_rng(seed)
+    a = v[rng.integers(0, len(v), n)] + rng.normal(0, 0.1, (n, 3))
+    return np.stack([a, a + rng.normal(0, 0.3, (n, 3))], axis=1)
+
+
+def test_crossings_beside_the_faces_equal_those_from_the_winding_number(overlapping):
+    from rdmesh.surfaces._mesh_crossings import winding_crossings
+
+    seg = _random_segments(overlapping.vertices, 4000, 3)
+    fast = winding_crossings(overlapping, seg)
+    sides, overlapping._face_sides = overlapping._face_sides, None
+    try:
+        slow = winding_crossings(overlapping, seg)
+    finally:
+        overlapping._face_sides = sides
+    assert np.array_equal(fast[-1], slow[-1]) and (~fast[-1]).sum() > 3500
+    for a, b in zip(fast[:-1], slow[:-1], strict=True):
+        assert np.array_equal(a, b)
+    assert len(fast[0]) > 1000
+
+
+def test_winding_beside_the_faces_equals_the_evaluated_one(overlapping):
+    from rdmesh.surfaces._mesh_sides import winding_beside
+
+    seg = _random_segments(overlapping.vertices, 5000, 4)
+    pts = seg.reshape(-1, 3)
+    _, closest, face, _ = overlapping._query(pts)
+    w = winding_beside(overlapping._face_sides, pts, closest, face)
+    read = ~np.isnan(w)
+    assert read.mean() > 0.5
+    assert np.array_equal(w[read], np.round(overlapping.winding_number(pts[read])))
+    # Inside both spheres (w = 2) is read too.
+    assert (w == 2).sum() > 100
+
+
+def test_remeshing_with_the_faces_sides_gives_the_same_mesh(overlapping):
+    fast = rdmesh.mesh_surface(overlapping, radius_bound=0.2, distance_bound=0.02)
+    sides, overlapping._face_sides = overlapping._face_sides, None
+    try:
+        slow = rdmesh.mesh_surface(overlapping, radius_bound=0.2, distance_bound=0.02)
+    finally:
+        overlapping._face_sides = sides
+    assert np.array_equal(fast.vertices, slow.vertices)
+    assert np.array_equal(fast.faces, slow.faces)
+    assert fast.stats["evaluations"] < slow.stats["evaluations"]

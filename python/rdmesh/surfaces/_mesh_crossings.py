@@ -177,17 +177,26 @@ def winding_crossings(surface, seg: np.ndarray):
     whose ``w`` is not clear of 0.5's band) and segments whose jumps do not
     add up to ``w``'s change between the ends (faces oriented against their
     neighbours) are ``unsure``. ``w`` is evaluated at the ends of the segments
-    that meet a face only, and counted in ``surface.evaluations``.
+    that meet a face only, and counted in ``surface.evaluations``. A closed
+    mesh that intersects itself has ``surface._face_sides``
+    (:class:`~rdmesh.surfaces._mesh_sides.FaceSides`): segments that meet
+    only faces crossing no other face take their crossings from those faces,
+    with no ``w`` at their ends.
     """
     seg = np.ascontiguousarray(seg, dtype=np.float64).reshape(-1, 2, 3)
     k = len(seg)
     h = _Hits.of(surface, seg)
     hit, unsure = h.hit, h.unsure  # unsure is h's own: crossings() returns it
     unsure |= _near_balls(seg, *surface._holes)
-    # w at the ends of the segments that meet a face.
+    sides = getattr(surface, "_face_sides", None)
+    side_of_hit = None if sides is None else sides.code[h.face]
+    known = np.zeros(k, bool)
+    if side_of_hit is not None:
+        known = np.bincount(hit, side_of_hit < 0, minlength=k) == 0
+    # w at the ends of the other segments that meet a face.
     met = np.zeros(k, bool)
     met[hit] = True
-    met &= ~unsure
+    met &= ~unsure & ~known
     ends, back = np.unique(seg[met].reshape(-1, 3), axis=0, return_inverse=True)
     with surface._lock:
         surface.segment_queries += k
@@ -203,14 +212,20 @@ def winding_crossings(surface, seg: np.ndarray):
     dn = np.einsum("ij,ij->i", raw, h.d[hit]) / h.length[hit]
     jump = np.where(dn < 0, 1.0, -1.0)  # to the face's back: w goes up by one
     unsure |= met & (whole[:, 0] + np.bincount(hit, jump, minlength=k) != whole[:, 1])
-    sel = np.flatnonzero(~unsure[hit])
+    sel = np.flatnonzero(~unsure[hit] & ~known[hit])
     # w just after each hit: the start's plus the jumps so far along its segment.
     after = whole[hit[sel], 0] + _cumsum_by(hit[sel], jump[sel])
-    inside_before = after - jump[sel] > 0.5
-    cross = inside_before != (after > 0.5)
+    inside = np.zeros(len(hit), bool)
+    inside[sel] = after - jump[sel] > 0.5
     keep = np.zeros(len(hit), bool)
-    keep[sel[cross]] = True
-    return h.crossings(keep, inside_before[cross], np.abs(dn[keep]))
+    keep[sel] = inside[sel] != (after > 0.5)
+    if side_of_hit is not None:
+        # On a face with w = 0 in front and 1 behind: inside before the hit
+        # when the segment goes to the face's front.
+        by_face = np.flatnonzero(known[hit] & ~unsure[hit] & (side_of_hit == 1))
+        keep[by_face] = True
+        inside[by_face] = dn[by_face] > 0
+    return h.crossings(keep, inside[keep], np.abs(dn[keep]))
 
 
 def _cumsum_by(group: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ from .._errors import MeshInputError
 from ..core import MeshDistance, PointMap
 from ._mesh_crossings import CrossingFaces, hole_balls, segment_crossings, winding_crossings
 from ._mesh_input import is_closed_oriented, orient_normals, winding_ambiguity
+from ._mesh_sides import face_sides, winding_numbers
 
 #: Below this distance (times the bounding radius) the gradient is the normal
 #: of the closest face: there ``p - closest`` is too short to give a direction.
@@ -105,6 +106,9 @@ class MeshQueries(CrossingFaces):
             self.ambiguous_share = winding_ambiguity(self._core, v, f, self._normals, norms)
             self._holes = hole_balls(v, f)
             self.exact_crossings = partial(winding_crossings, self)
+            pairs = self._core.self_intersections()
+            if len(pairs):  # closed and oriented: the faces clear of the crossings
+                self._face_sides = face_sides(self._core, v, f, pairs)
         orient_normals(v, f, self._normals, norms, self._sign)
 
     def _query(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -114,13 +118,14 @@ class MeshQueries(CrossingFaces):
             dist, closest, face, side = parts[0]
         else:
             dist, closest, face, side = (np.concatenate(x) for x in zip(*parts, strict=True))
-        s = side.astype(np.float64) if self.sign_method == "side" else self._winding_factor(pts)
-        return dist, closest, face, s
+        if self.sign_method == "side":
+            return dist, closest, face, side.astype(np.float64)
+        return dist, closest, face, self._winding_factor(pts, closest, face)
 
-    def _winding_factor(self, pts: np.ndarray) -> np.ndarray:
-        w = np.concatenate(
-            [self._core.winding_number(pts[i : i + _CHUNK]) for i in range(0, len(pts), _CHUNK)]
-        )
+    def _winding_factor(self, pts: np.ndarray, closest=None, face=None) -> np.ndarray:
+        """clip(WINDING_SLOPE (1 - 2 w), -1, 1); see :func:`winding_numbers`."""
+        sides = getattr(self, "_face_sides", None) if face is not None else None
+        w = winding_numbers(self._core, pts, _CHUNK, sides, closest, face)
         return np.clip(WINDING_SLOPE * (1.0 - 2.0 * w), -1.0, 1.0)
 
     def _signed_distance(self, points: np.ndarray) -> np.ndarray:

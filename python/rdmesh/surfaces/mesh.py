@@ -43,11 +43,9 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
         curves, split at corners (vertices with other than two sharp edges,
         or where the chain turns by at least this angle), and kept in the
         remesh by protecting balls (:mod:`rdmesh.features`). "auto": 60
-        degrees, unless the sharp edges look like noise (at least 50 curves,
-        the median one at most 2 edges long, and fewer than 20 % of the edges
-        sharp, as on a noisy scan) or like the surface's roughness (more than
-        twice as many edges with normals 30 to 60 degrees apart, as on a
-        coarse organic mesh): then none, with a warning. None: none.
+        degrees, unless the sharp edges look like noise (many short curves,
+        as on a scan) or roughness (more than twice as many edges 30 to 60
+        degrees, as on a coarse organic mesh): then none, with a warning.
     features : list of (m, 3) array_like, or "none", optional
         More feature curves (see :class:`ImplicitSurface`); "none" protects
         nothing, sharp edges included.
