@@ -27,11 +27,14 @@ complete, the seeding's level::
 
     python benchmarks/real_data.py [--quick] [--out results/real-data-DATE.json]
         [--only remesh|volume] [--cases bone,genus-2] [--sizes 0.01,0.003]
-        [--repeat 3]
+        [--repeat 3] [--inputs standard|more|all]
 
 ``--repeat N`` remeshes each case N times with each tool, alternating, and
 records the median time (every time in ``times``): on a shared machine one
 run of either can be 20 % off.
+
+``--inputs more`` remeshes other real meshes instead (:func:`more_mesh_inputs`:
+pymeshlab's other sample meshes and nilearn's other fsaverage5 surfaces).
 
 ``--quick`` runs the 1 % size only and leaves out the grey-matter map.
 Needs ``pymeshlab``, ``nilearn`` and ``scikit-image`` (``pip install
@@ -141,6 +144,44 @@ def mesh_inputs() -> dict[str, tuple[np.ndarray, np.ndarray] | str]:
         out["cortex (fsaverage5 pial, left)"] = "nilearn not installed"
     out["genus-2, thin handles (synthetic)"] = genus2_thin()
     out["folded, brain-like (synthetic)"] = folded()
+    return out
+
+
+def more_mesh_inputs() -> dict[str, tuple[np.ndarray, np.ndarray] | str]:
+    """More real meshes (``--inputs more``): pymeshlab's other sample meshes (a
+    low-poly cow whose head's faces cross, an airplane, a 12-triangle cube, a
+    10k bunny with its base open, a range scan) and nilearn's fsaverage5
+    surfaces (white matter, pial, inflated, sphere; both hemispheres: the right
+    white and pial surfaces intersect themselves)."""
+    out: dict = {}
+    try:
+        import pymeshlab
+
+        base = Path(pymeshlab.__file__).parent / "tests" / "sample_meshes"
+        for file in ("cow.obj", "airplane.obj", "cube.obj", "bunny10k_textured.obj",
+                     "rangemaps/face000.ply"):  # fmt: skip
+            ms = pymeshlab.MeshSet()
+            ms.load_new_mesh(str(base / file))
+            m = ms.current_mesh()
+            out[f"{Path(file).stem} (pymeshlab)"] = (
+                m.vertex_matrix().copy(), m.face_matrix().astype(np.int64)
+            )  # fmt: skip
+    except ImportError:
+        out["pymeshlab samples"] = "pymeshlab not installed"
+    try:
+        from nilearn import datasets
+
+        fs = datasets.load_fsaverage("fsaverage5")
+        for kind in ("white_matter", "pial", "inflated", "sphere"):
+            for side in ("left", "right"):
+                if (kind, side) == ("pial", "left"):
+                    continue  # the standard set's cortex
+                part = fs[kind].parts[side]
+                out[f"fsaverage5 {kind}, {side}"] = (
+                    np.asarray(part.coordinates, float), np.asarray(part.faces, np.int64)
+                )  # fmt: skip
+    except ImportError:
+        out["fsaverage5"] = "nilearn not installed"
     return out
 
 
@@ -278,18 +319,27 @@ def _median_seconds(results: list, key) -> tuple[float, list[float]]:
     return float(np.median(times)), times
 
 
-def remesh_rows(sizes: tuple[float, ...], cases: str | None = None, repeat: int = 1) -> list[dict]:
+def remesh_rows(
+    sizes: tuple[float, ...], cases: str | None = None, repeat: int = 1, inputs: str = "standard"
+) -> list[dict]:
     import rdmesh
 
     rows = []
-    for name, data in mesh_inputs().items():
+    meshes = {} if inputs == "more" else mesh_inputs()
+    if inputs != "standard":
+        meshes.update(more_mesh_inputs())
+    for name, data in meshes.items():
         if cases and not any(c in name for c in cases.split(",")):
             continue
         if isinstance(data, str):
             rows.append({"kind": "remesh", "case": name, "note": data})
             continue
         v, f = data
-        ref = rdmesh.MeshSurface((v, f))
+        try:
+            ref = rdmesh.MeshSurface((v, f))
+        except rdmesh.MeshInputError as exc:
+            rows.append({"kind": "remesh", "case": name, "note": f"refused: {exc}"})
+            continue
         diag = float(np.linalg.norm(np.ptp(ref.vertices, axis=0)))
         inp = topology(ref.vertices, ref.faces)
         intersects = len(ref.self_intersections)
@@ -439,6 +489,12 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", default=None, help="comma-separated fractions of the diagonal")
     ap.add_argument("--repeat", type=int, default=1, help="runs of each remesher (median)")
     ap.add_argument(
+        "--inputs",
+        choices=("standard", "more", "all"),
+        default="standard",
+        help="remeshing: the issue's inputs, more real meshes (more_mesh_inputs), or both",
+    )
+    ap.add_argument(
         "--reference-factor",
         type=int,
         default=2,
@@ -456,7 +512,7 @@ def main(argv=None) -> int:
         sizes = tuple(float(x) for x in args.sizes.split(","))
     rows = []
     if args.only != "volume":
-        rows += remesh_rows(sizes, args.cases, args.repeat)
+        rows += remesh_rows(sizes, args.cases, args.repeat, args.inputs)
     if args.only != "remesh":
         rows += volume_rows(args.quick, args.cases, args.reference_factor)
     from record import git_commit
