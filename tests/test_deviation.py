@@ -345,3 +345,26 @@ def test_edges_with_both_ends_crossings_on_one_face_are_not_measured():
     assert stage._ok_edges.contains(edges).tolist() == [True, False, False]
     # The settled edge's midpoint is on the input indeed.
     assert abs(surface.signed_distance(V[:2].mean(axis=0, keepdims=True))[0]) < 1e-12
+
+
+def test_a_self_intersecting_input_is_checked_on_its_union_surface():
+    """Two overlapping spheres as one closed mesh: the remesh is their union,
+    so the check measures only input points on the union's surface (none
+    inside the other sphere), and it runs."""
+    from rdmesh.refine.deviation import EDGE_SPACING, input_probes
+    from test_mesh_input import overlapping_spheres
+
+    s = rdmesh.MeshSurface(overlapping_spheres())
+    assert s.sign_method == "winding" and len(s.self_intersections)
+    stage = deviation_stage(s, DISTANCE)
+    assert stage is not None
+    p = stage._probes
+    inside = (np.linalg.norm(p, axis=1) < 0.97) | (np.linalg.norm(p - [1.2, 0, 0], axis=1) < 0.97)
+    assert not inside.any()
+    every = input_probes(s.vertices, s.faces, EDGE_SPACING * DISTANCE)
+    outside = (np.linalg.norm(every, axis=1) > 1.03) & (
+        np.linalg.norm(every - [1.2, 0, 0], axis=1) > 1.03
+    )
+    assert outside.sum() <= len(p) < len(every)
+    mesh = rdmesh.mesh_surface(s, radius_bound=0.15, distance_bound=0.015)
+    assert mesh.stats["distance_check"] is not None

@@ -19,6 +19,10 @@ points left beyond the bound), then measures once more for the statistics.
 Where points were refused below the spacing floor, it proposes once, only
 the farthest points up to a budget, none near the refused points or the
 input's folds; an input with folds is always checked so (:data:`BUDGET`).
+A closed input that intersects itself is remeshed as the union it encloses,
+whose surface lies on the input's faces that separate inside from outside
+(:class:`~rdmesh.surfaces._mesh_sides.FaceSides`): only points of those are
+measured.
 These are points checked, not every point of either surface: the stage
 narrows the two-sided Hausdorff distance, it does not prove a bound on it.
 """
@@ -123,7 +127,10 @@ class DeviationStage:
 
     def __post_init__(self) -> None:
         v, f = self.surface.vertices, self.surface.faces
-        self._probes = input_probes(v, f, EDGE_SPACING * self.bound)
+        # A closed mesh that intersects itself: only the faces on its union's surface.
+        sides = getattr(self.surface, "_face_sides", None)
+        kept = None if sides is None else sides.code == 1
+        self._probes = input_probes(v, f, EDGE_SPACING * self.bound, kept)
         n = len(self._probes)
         # Input points next to a protecting ball are never proposed.
         self._free = np.ones(n, bool)
@@ -226,19 +233,29 @@ class DeviationStage:
         return {k: getattr(self, k) for k in keys}
 
 
-def input_probes(vertices: np.ndarray, faces: np.ndarray, spacing: float) -> np.ndarray:
+def input_probes(
+    vertices: np.ndarray, faces: np.ndarray, spacing: float, kept: np.ndarray | None = None
+) -> np.ndarray:
     """The input's vertices, then points along its creased edges (whose two
     faces are not coplanar), at most ``spacing`` apart and at least the
-    midpoint: a long crease can stand out of the output between its ends."""
+    midpoint: a long crease can stand out of the output between its ends.
+    With ``kept`` ((m,) bool), only vertices and edges all of whose vertices'
+    faces are kept."""
     v = vertices
     normals = unit_rows(np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]]))
     creased = sharp_edges(faces, normals, CREASE_ANGLE)
+    if kept is not None:
+        ok = np.ones(len(v), bool)
+        np.logical_and.at(ok, faces.reshape(-1), np.repeat(kept, 3))
+        creased = creased[ok[creased].all(axis=1)]
+        v = np.where(ok[:, None], v, np.nan)  # dropped below
     p, q = v[creased[:, 0]], v[creased[:, 1]]
     parts = np.maximum(np.ceil(np.linalg.norm(q - p, axis=1) / spacing), 2).astype(np.int64)
     owner = np.repeat(np.arange(len(p)), parts - 1)
     step = np.arange(len(owner)) - np.repeat(np.cumsum(parts - 1) - (parts - 1), parts - 1) + 1
     t = (step / parts[owner])[:, None]
-    return np.concatenate([v, p[owner] + t * (q[owner] - p[owner])])
+    points = np.concatenate([v, p[owner] + t * (q[owner] - p[owner])])
+    return points if kept is None else points[~np.isnan(points[:, 0])]
 
 
 def _on_one_face(surface, V: np.ndarray, edges: np.ndarray) -> np.ndarray:
@@ -316,8 +333,10 @@ def _none(name: str) -> Candidates:
 
 
 def deviation_stage(surface, distance_bound: float | None, balls=None) -> DeviationStage | None:
-    """The stage for a closed mesh input with a distance bound, None otherwise
-    (an open mesh's hole patches are not on its faces)."""
-    if distance_bound is None or getattr(surface, "sign_method", None) != "side":
+    """The stage for a closed mesh input with a distance bound (one that
+    intersects itself measured on the faces of its union's surface), None
+    otherwise (an open mesh's hole patches are not on its faces)."""
+    closed = getattr(surface, "sign_method", None) == "side"
+    if distance_bound is None or not (closed or getattr(surface, "_face_sides", None) is not None):
         return None
     return DeviationStage(surface, float(distance_bound), balls)
