@@ -580,3 +580,24 @@ def test_remeshing_with_the_faces_sides_gives_the_same_mesh(overlapping, monkeyp
     assert np.array_equal(fast.vertices, slow.vertices)
     assert np.array_equal(fast.faces, slow.faces)
     assert fast.stats["evaluations"] < slow.stats["evaluations"]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(*[st.integers(0, 7)] * 3), min_size=1, max_size=40), st.booleans())
+def test_closed_oriented_and_merged_points_match_numpys_row_unique(faces, sphere):
+    """The sort-key versions give what numpy's row-wise unique gives."""
+    import trimesh
+    from rdmesh.surfaces._mesh_input import _unique_points, is_closed_oriented
+
+    f = np.asarray(faces, np.int64)
+    if sphere:  # a closed, oriented mesh with the drawn faces added
+        f = np.concatenate([np.asarray(trimesh.creation.icosphere(subdivisions=1).faces), f])
+    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    _, counts = np.unique(np.sort(directed, axis=1), axis=0, return_counts=True)
+    want = len(np.unique(directed, axis=0)) == len(directed) and bool(np.all(counts == 2))
+    assert is_closed_oriented(f) == want
+    assert is_closed_oriented(np.asarray(trimesh.creation.icosphere(subdivisions=1).faces))
+    points = f.astype(float) / 3.0  # repeated rows
+    u, inverse = np.unique(points, axis=0, return_inverse=True)
+    got_u, got_inverse = _unique_points(points)
+    assert np.array_equal(u, got_u) and np.array_equal(inverse.reshape(-1), got_inverse)

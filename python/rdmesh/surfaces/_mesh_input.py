@@ -92,14 +92,25 @@ def as_arrays(mesh: Any) -> tuple[np.ndarray, np.ndarray]:
 def clean(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Merge equal vertices, drop faces that repeat a vertex and unused vertices,
     and split pinched vertices (:func:`split_pinches`)."""
-    v, inverse = np.unique(v, axis=0, return_inverse=True)
-    f = inverse.reshape(-1)[f]
+    v, inverse = _unique_points(v)
+    f = inverse[f]
     keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
     f = f[keep]
     if len(f) == 0:
         raise MeshInputError("every face of the mesh has zero area (repeated vertices)")
     used, f = np.unique(f, return_inverse=True)
     return split_pinches(v[used], f.reshape(-1, 3).astype(np.int64))
+
+
+def _unique_points(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(v, axis=0, return_inverse=True)`` by one lexsort (numpy's
+    row-wise unique is several times slower on large meshes)."""
+    order = np.lexsort(v.T[::-1])
+    ordered = v[order]
+    new = np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]
+    inverse = np.empty(len(v), np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    return ordered[new], inverse
 
 
 def split_pinches(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -212,11 +223,16 @@ def fold_edges(f: np.ndarray, normals: np.ndarray) -> np.ndarray:
 
 def is_closed_oriented(f: np.ndarray) -> bool:
     """Every edge in exactly two faces, traversed once in each direction."""
-    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
-    if len(np.unique(directed, axis=0)) != len(directed):
+    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]).astype(np.int64)
+    n = int(directed.max()) + 1
+    key = np.sort(directed[:, 0] * n + directed[:, 1])
+    if np.any(key[1:] == key[:-1]):
         return False
-    undirected, counts = np.unique(np.sort(directed, axis=1), axis=0, return_counts=True)
-    return bool(np.all(counts == 2)) and len(undirected) * 2 == len(directed)
+    pair = np.sort(directed, axis=1)
+    key = np.sort(pair[:, 0] * n + pair[:, 1])
+    # Distinct directed edges: each undirected one at most twice, so exactly
+    # twice when the sorted keys come in equal pairs.
+    return bool(len(key) % 2 == 0 and np.all(key[0::2] == key[1::2]))
 
 
 def ambiguous_share(
