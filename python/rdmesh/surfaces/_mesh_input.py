@@ -139,7 +139,9 @@ def split_pinches(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     rows = np.concatenate([low[same], high[same]])
     cols = np.concatenate([low[same + 1], high[same + 1]])
     graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(3 * m, 3 * m))
-    _, fan = connected_components(graph, directed=False)
+    fans, fan = connected_components(graph, directed=False)
+    if fans == np.count_nonzero(np.bincount(corner_vertex, minlength=len(v))):
+        return v, f  # one fan per vertex
     # Each (vertex, fan) pair once; a vertex's fans beyond its first are pinches.
     pairs, first_corner, inverse = np.unique(
         corner_vertex.astype(np.int64) * (3 * m) + fan, return_index=True, return_inverse=True
