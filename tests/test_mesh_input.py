@@ -601,3 +601,30 @@ def test_closed_oriented_and_merged_points_match_numpys_row_unique(faces, sphere
     u, inverse = np.unique(points, axis=0, return_inverse=True)
     got_u, got_inverse = _unique_points(points)
     assert np.array_equal(u, got_u) and np.array_equal(inverse.reshape(-1), got_inverse)
+
+
+def test_every_component_of_a_closed_mesh_gets_a_seed():
+    """A vertex of each component of a closed input that does not intersect
+    itself: on the surface, one per component, and the seeding is proven."""
+    from rdmesh.sampling.components import find_components
+
+    a, speck = sphere_mesh((0, 0, 0), 1.0, 16), sphere_mesh((3, 0, 0), 0.05, 16)
+    v = np.concatenate([a[0], speck[0]])
+    f = np.concatenate([a[1], speck[1] + len(a[0])])
+    surface = rdmesh.MeshSurface((v, f), feature_angle=None)
+    found = find_components(surface, np.random.default_rng(0))
+    assert found is not None and found.proven and len(found.points) == 2
+    assert np.abs(surface.signed_distance(found.points)).max() == 0.0
+    assert {int(x > 1.5) for x in found.points[:, 0]} == {0, 1}
+    # With seeds on the large sphere already, only the speck needs one.
+    on_large = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    on_large = surface.closest_points(on_large)[0]
+    rest = find_components(surface, np.random.default_rng(0), seeds=on_large)
+    assert rest.proven and len(rest.points) == 1 and rest.points[0, 0] > 1.5
+    mesh = rdmesh.mesh_surface(surface, radius_bound=0.3, distance_bound=0.03)
+    assert mesh.report["seeding"]["level"] == "proven" and mesh.report["components"] == 2
+    # Open or self-intersecting inputs: no proof.
+    assert (
+        find_components(rdmesh.MeshSurface(overlapping_spheres()), np.random.default_rng(0))
+        is None
+    )

@@ -350,11 +350,12 @@ def _scan(
     clipped: bool = False,
 ) -> tuple[GridScan, Discovery | None]:
     """The grid scan (seeds, probes, the bounding-sphere check), plus, where
-    the surface has one (expressions, closed volumes; with or without
-    ``certify``), the proven component search's points, which include one on
-    every component when it is proven (:mod:`rdmesh.sampling.components`)."""
+    the surface has one (expressions, closed volumes, closed mesh inputs; with
+    or without ``certify``), the proven component search's points, which with
+    the grid's seeds put one on every component when it is proven
+    (:mod:`rdmesh.sampling.components`)."""
     scan = grid_scan(surface, rng, resolution, spacing=spacing, clipped=clipped)
-    found = find_components(surface, rng, clipped)
+    found = find_components(surface, rng, clipped, scan.seeds)
     if found is None or len(found.points) == 0:
         return scan, found
     # Grid seeds right next to a discovery point only add short edges.

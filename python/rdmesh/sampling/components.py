@@ -2,8 +2,10 @@
 
 Expression surfaces get the interval subdivision
 (:mod:`rdmesh.sampling.discovery`), closed volumes the search on their
-interpolant (:mod:`rdmesh.sampling.volume_components`); other surfaces none
-(their seeding is the grid scan's, sampled).
+interpolant (:mod:`rdmesh.sampling.volume_components`), closed mesh inputs
+that do not intersect themselves a vertex of each of their components
+(:func:`mesh_components`); other surfaces none (their seeding is the grid
+scan's, sampled).
 """
 
 from __future__ import annotations
@@ -16,7 +18,10 @@ from .discovery import Discovery, discover
 
 
 def find_components(
-    surface: ImplicitSurface, rng: np.random.Generator, clipped: bool = False
+    surface: ImplicitSurface,
+    rng: np.random.Generator,
+    clipped: bool = False,
+    seeds: np.ndarray | None = None,
 ) -> Discovery | None:
     """Seeds with a point on every component, where a proof is available.
 
@@ -28,6 +33,9 @@ def find_components(
         The run meshes the part inside the ball or a clip box
         (``manifold-with-boundary``): no search (the proofs assume a closed
         surface inside the ball).
+    seeds : (k, 3) points on the surface that the run has already (the grid
+        scan's), or None: a mesh input then only needs seeds on the
+        components they miss.
 
     Returns
     -------
@@ -44,4 +52,34 @@ def find_components(
         from .volume_components import volume_components
 
         return volume_components(surface)
+    if getattr(surface, "topology_known", False):
+        return mesh_components(surface, seeds)
     return None
+
+
+def mesh_components(surface, seeds: np.ndarray | None = None) -> Discovery:
+    """A vertex of each component of a closed mesh input that does not
+    intersect itself (:attr:`~rdmesh.MeshSurface.topology_known`) and that
+    none of ``seeds`` (points on the surface) lies on: each input component
+    is a component of the surface, and its vertices lie on it (``f = 0``), so
+    with ``seeds`` every component has a seed, however small."""
+    from .._mesh_components import labelled_components
+
+    count, face_label, label = labelled_components(surface.faces, len(surface.vertices))
+    used = np.flatnonzero(label >= 0)
+    first = used[np.unique(label[used], return_index=True)[1]]
+    if seeds is not None and len(seeds):
+        seeded = np.zeros(count, bool)
+        _, face = surface.closest_points(np.asarray(seeds, dtype=float).reshape(-1, 3))
+        seeded[face_label[face]] = True
+        first = first[~seeded[label[first]]]
+    return Discovery(
+        points=surface.vertices[first],
+        proven=True,
+        unresolved=np.zeros((0, 3)),
+        boxes=0,
+        side=0.0,
+        evaluations=0,
+        basis="the grid's seeds, and a vertex of each component of the closed input mesh (which "
+        f"does not intersect itself) that they miss: a seed on every component ({count})",
+    )
