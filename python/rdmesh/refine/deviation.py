@@ -128,7 +128,7 @@ class DeviationStage:
     def __post_init__(self) -> None:
         v, f = self.surface.vertices, self.surface.faces
         # A closed mesh that intersects itself: only the faces on its union's surface.
-        sides = getattr(self.surface, "_face_sides", None)
+        sides = self.surface._face_sides
         kept = None if sides is None else sides.code == 1
         self._probes = input_probes(v, f, EDGE_SPACING * self.bound, kept)
         n = len(self._probes)
@@ -244,18 +244,16 @@ def input_probes(
     v = vertices
     normals = unit_rows(np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]]))
     creased = sharp_edges(faces, normals, CREASE_ANGLE)
+    ok = np.ones(len(v), bool)
     if kept is not None:
-        ok = np.ones(len(v), bool)
         np.logical_and.at(ok, faces.reshape(-1), np.repeat(kept, 3))
         creased = creased[ok[creased].all(axis=1)]
-        v = np.where(ok[:, None], v, np.nan)  # dropped below
     p, q = v[creased[:, 0]], v[creased[:, 1]]
     parts = np.maximum(np.ceil(np.linalg.norm(q - p, axis=1) / spacing), 2).astype(np.int64)
     owner = np.repeat(np.arange(len(p)), parts - 1)
     step = np.arange(len(owner)) - np.repeat(np.cumsum(parts - 1) - (parts - 1), parts - 1) + 1
     t = (step / parts[owner])[:, None]
-    points = np.concatenate([v, p[owner] + t * (q[owner] - p[owner])])
-    return points if kept is None else points[~np.isnan(points[:, 0])]
+    return np.concatenate([v[ok], p[owner] + t * (q[owner] - p[owner])])
 
 
 def _on_one_face(surface, V: np.ndarray, edges: np.ndarray) -> np.ndarray:

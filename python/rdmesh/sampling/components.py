@@ -65,13 +65,13 @@ def mesh_components(surface, seeds: np.ndarray | None = None) -> Discovery:
     with ``seeds`` every component has a seed, however small."""
     from .._mesh_components import labelled_components
 
-    count, face_label, label = labelled_components(surface.faces, len(surface.vertices))
+    count, _, label = labelled_components(surface.faces, len(surface.vertices))
     used = np.flatnonzero(label >= 0)
     first = used[np.unique(label[used], return_index=True)[1]]
     if seeds is not None and len(seeds):
+        # input_components numbers the components as labelled_components does.
         seeded = np.zeros(count, bool)
-        _, face = surface.closest_points(np.asarray(seeds, dtype=float).reshape(-1, 3))
-        seeded[face_label[face]] = True
+        seeded[surface.input_components(np.asarray(seeds, dtype=float).reshape(-1, 3))] = True
         first = first[~seeded[label[first]]]
     return Discovery(
         points=surface.vertices[first],

@@ -190,7 +190,7 @@ def winding_crossings(surface, seg: np.ndarray):
     h = _Hits.of(surface, seg)
     hit, unsure = h.hit, h.unsure  # unsure is h's own: crossings() returns it
     unsure |= _near_balls(seg, *surface._holes)
-    sides = getattr(surface, "_face_sides", None)
+    sides = surface._face_sides
     side_of_hit = None if sides is None else sides.code[h.face]
     known = np.zeros(k, bool)
     if side_of_hit is not None:

@@ -96,6 +96,8 @@ class MeshQueries(CrossingFaces):
         v, f = self.vertices, self.faces
         #: Exact crossings (closed meshes; None: sampled), their count; f > 0 outside the sphere.
         self.exact_crossings, self.segment_queries, self.sphere_clear = None, 0, False
+        #: A closed mesh that intersects itself: w beside each face (FaceSides), else None.
+        self._face_sides = None
         if self._core.has_side:
             self.sign_method = "side"
             self.ambiguous_share = 0.0
@@ -124,7 +126,7 @@ class MeshQueries(CrossingFaces):
 
     def _winding_factor(self, pts: np.ndarray, closest=None, face=None) -> np.ndarray:
         """clip(WINDING_SLOPE (1 - 2 w), -1, 1); see :func:`winding_numbers`."""
-        sides = getattr(self, "_face_sides", None) if face is not None else None
+        sides = self._face_sides if face is not None else None
         w = winding_numbers(self._core, pts, _CHUNK, sides, closest, face)
         return np.clip(WINDING_SLOPE * (1.0 - 2.0 * w), -1.0, 1.0)
 
