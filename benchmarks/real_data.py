@@ -97,8 +97,8 @@ def folded(h: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
 
 def cut_holes(v: np.ndarray, f: np.ndarray, k: int = 3, frac: float = 0.03):
     """``(v, f)`` without the faces within ``frac`` of the diagonal of ``k`` of its
-    vertices (evenly spaced in index order): an open scan with ``k`` holes. rdmesh
-    closes them (the winding number's patch); pymeshlab keeps them."""
+    vertices (evenly spaced in index order): an open scan with ``k`` holes. Both
+    rdmesh (``holes="keep"``) and pymeshlab keep them."""
     diag = np.linalg.norm(np.ptp(v, axis=0))
     centres = v[f].mean(axis=1)
     keep = np.ones(len(f), bool)
@@ -240,6 +240,11 @@ def min_angle(v: np.ndarray, f: np.ndarray) -> float:
     return float(np.min(angles))
 
 
+def input_faces(ref) -> np.ndarray:
+    """The input's faces of a MeshSurface (without the caps over its holes)."""
+    return ref.faces[: ref.input_face_count]
+
+
 def hausdorff(v, f, ref, n: int = 20000, seed: int = 0) -> float:
     """Two-sided Hausdorff distance between a mesh and the input ``ref``
     (a MeshSurface), from area-weighted samples plus the vertices both ways."""
@@ -255,9 +260,12 @@ def hausdorff(v, f, ref, n: int = 20000, seed: int = 0) -> float:
         u[flip], w[flip] = 1 - u[flip], 1 - w[flip]
         return np.concatenate([a[i] + u[:, None] * (b[i] - a[i]) + w[:, None] * (c[i] - a[i]), v])
 
-    out = rdmesh.MeshSurface((v, f))
+    out = rdmesh.MeshSurface((v, f), holes="fill")
+    faces = input_faces(ref)
+    if len(faces) < len(ref.faces):  # distances to the input, not to its caps
+        ref = rdmesh.MeshSurface((ref.vertices, faces), holes="fill")
     d1 = np.linalg.norm(samples(v, f) - ref.closest_points(samples(v, f))[0], axis=1).max()
-    s2 = samples(ref.vertices, ref.faces)
+    s2 = samples(ref.vertices, faces)
     d2 = np.linalg.norm(s2 - out.closest_points(s2)[0], axis=1).max()
     return float(max(d1, d2))
 
@@ -341,7 +349,7 @@ def remesh_rows(
             rows.append({"kind": "remesh", "case": name, "note": f"refused: {exc}"})
             continue
         diag = float(np.linalg.norm(np.ptp(ref.vertices, axis=0)))
-        inp = topology(ref.vertices, ref.faces)
+        inp = topology(ref.vertices, input_faces(ref))
         intersects = len(ref.self_intersections)
         for frac in sizes:
             r = frac * diag
@@ -351,7 +359,7 @@ def remesh_rows(
                 import pymeshlab  # noqa: F401
 
                 runs = [partial(run_rdmesh_remesh, ref, r),
-                        partial(run_pymeshlab, ref.vertices, ref.faces, r)]  # fmt: skip
+                        partial(run_pymeshlab, ref.vertices, input_faces(ref), r)]  # fmt: skip
             except ImportError:
                 runs = [partial(run_rdmesh_remesh, ref, r)]
             done = _alternating(runs, repeat)

@@ -72,6 +72,7 @@ py::tuple samples_tuple(SegmentSamples& m);
 void register_intervals(py::module_& m);       // bind_intervals.cpp
 void register_sampling(py::module_& m);        // bind_sampling.cpp
 void register_mesh_distance(py::module_& m);   // bind_mesh_distance.cpp
+void register_hole_fill(py::module_& m);       // hole_fill.cpp
 
 }  // namespace rdmesh::bind
 

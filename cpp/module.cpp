@@ -101,6 +101,7 @@ PYBIND11_MODULE(_rdt, m) {
   rdmesh::bind::register_sampling(m);
   rdmesh::bind::register_intervals(m);
   rdmesh::bind::register_mesh_distance(m);
+  rdmesh::bind::register_hole_fill(m);
 
   m.def(
       "_fail_allocation_for_testing",

@@ -110,7 +110,7 @@ def test_only_closed_meshes_with_a_bound_are_checked():
     assert deviation_stage(sphere, DISTANCE) is None
     ico = trimesh.creation.icosphere(subdivisions=2)
     cap = ico.vertices[ico.faces].mean(axis=1)[:, 2] < 0.8  # a hole at the top
-    opened = rdmesh.MeshSurface((ico.vertices, ico.faces[cap]), feature_angle=None)
+    opened = rdmesh.MeshSurface((ico.vertices, ico.faces[cap]), feature_angle=None, holes="fill")
     assert opened.sign_method == "winding"
     assert deviation_stage(opened, DISTANCE) is None
 

@@ -317,7 +317,7 @@ def test_open_mesh_crossings_match_the_sampled_search():
     from rdmesh.sampling.roots import Crossings
     from rdmesh.surfaces._mesh_crossings import _near_balls, hole_balls
 
-    surface = rdmesh.MeshSurface(open_sphere())
+    surface = rdmesh.MeshSurface(open_sphere(), holes="fill")
     assert surface.sign_method == "winding" and surface.exact_crossings is not None
     rng = np.random.default_rng(13)
     v = surface.vertices
@@ -356,7 +356,7 @@ def test_a_face_against_its_neighbours_leaves_its_segments_to_sampling():
 
 
 def test_remeshing_an_open_mesh_with_exact_crossings_keeps_the_topology(monkeypatch):
-    surface = rdmesh.MeshSurface(open_sphere())
+    surface = rdmesh.MeshSurface(open_sphere(), holes="fill")
     exact = rdmesh.mesh_surface(surface, radius_bound=0.06)
     assert exact.stats["segment_queries"] > 0
     monkeypatch.setattr(surface, "exact_crossings", None)
@@ -371,7 +371,7 @@ def test_remeshing_an_open_mesh_with_exact_crossings_keeps_the_topology(monkeypa
 
 
 def test_the_gradient_is_a_unit_vector_off_the_holes_band():
-    surface = rdmesh.MeshSurface(open_sphere())
+    surface = rdmesh.MeshSurface(open_sphere(), holes="fill")
     p = np.array([[0.0, 0.0, 0.7], [0.0, 0.0, -0.9], [0.9, 0.0, 0.0], [0.0, 0.0, 0.0]])
     assert surface.unit_gradient_at(p).tolist() == [False, True, True, True]
     g = surface.grad(p[1:])

@@ -121,8 +121,10 @@ def test_input_components_and_known_topology(touching):
     assert top[0] != top[1]
     open_half = trimesh.creation.icosphere(subdivisions=3)
     keep = open_half.triangles_center[:, 2] > -0.5
-    cut = rdmesh.MeshSurface((open_half.vertices, open_half.faces[keep]), feature_angle=None)
-    assert not cut.topology_known
+    cut = (open_half.vertices, open_half.faces[keep])
+    assert not rdmesh.MeshSurface(cut, feature_angle=None, holes="fill").topology_known
+    # Its hole kept, it is capped while meshing: closed, so its topology is known.
+    assert rdmesh.MeshSurface(cut, feature_angle=None).topology_known
 
 
 # drop_pockets alone, on hand-made faces: an icosphere and a small tetrahedron.

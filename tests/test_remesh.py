@@ -162,7 +162,7 @@ def test_small_hole_is_closed_by_the_winding_number():
     centroid = v[f].mean(axis=1)
     hole = np.linalg.norm(centroid - [1.4, 0.0, 0.0], axis=1) < 0.15
     assert 5 < hole.sum() < 0.02 * len(f)
-    ms = MeshSurface((v, f[~hole]))
+    ms = MeshSurface((v, f[~hole]), holes="fill")
     assert ms.sign_method == "winding"
     # Across the hole the zero set is a patch where w = 0.5: f is continuous there.
     mesh = rdmesh.mesh_surface(ms, radius_bound=ms.radius / 20)
@@ -176,7 +176,7 @@ def test_half_sphere_becomes_a_closed_half_ball():
     # sphere is seen under 2 pi), so the disc closes it.
     ico = trimesh.creation.icosphere(subdivisions=3)
     top = ico.faces[ico.vertices[ico.faces].mean(axis=1)[:, 2] > 0]
-    ms = MeshSurface((ico.vertices, top))
+    ms = MeshSurface((ico.vertices, top), holes="fill")
     assert ms.sign_method == "winding" and 0 < ms.ambiguous_share < 0.2
     rb = ms.radius / 20
     mesh = rdmesh.mesh_surface(ms, radius_bound=rb)

@@ -29,7 +29,9 @@ def _features(args):
     return read_polylines(args.features)
 
 
-def _mesh_file_surface(path: str, feature_angle="auto", features=None) -> ImplicitSurface:
+def _mesh_file_surface(
+    path: str, feature_angle="auto", features=None, holes: str = "keep"
+) -> ImplicitSurface:
     """The :class:`MeshSurface` of the mesh file ``path`` (``remesh`` and ``batch``)."""
     import trimesh
 
@@ -42,8 +44,9 @@ def _mesh_file_surface(path: str, feature_angle="auto", features=None) -> Implic
     except Exception as exc:  # noqa: BLE001 - trimesh's loaders raise many types
         raise _CliError(f"cannot read {path!r} as a mesh: {_one_line(exc)}") from None
     return MeshSurface(
-        loaded, name=os.path.basename(path), feature_angle=feature_angle, features=features
-    )
+        loaded, name=os.path.basename(path), feature_angle=feature_angle, features=features,
+        holes=holes,
+    )  # fmt: skip
 
 
 #: With ``--clip-box`` and no sphere, the box's circumscribed sphere enlarged by this.

@@ -232,6 +232,13 @@ def mesh_surface(
         )
     given = has_given_curves(surface)
     given |= isinstance(surface.features, ProtectingBalls)
+    holes = getattr(surface, "holes", None)
+    if holes is not None and holes.curves and (method != "boissonnat-oudot" or certify):
+        raise ValueError(
+            f"{surface.name!r} is an open mesh whose holes are kept: their rims are protected "
+            "curves, which need method='boissonnat-oudot' without certify; or remesh it "
+            "closed with MeshSurface(..., holes='fill')"
+        )
     if given and (method != "boissonnat-oudot" or certify):
         raise ValueError(
             "feature curves (features=) need method='boissonnat-oudot' without certify: the "

@@ -335,9 +335,9 @@ def _add_remesh_parser(sub) -> None:
         help="remesh a triangle mesh file (its signed distance is the surface)",
         description=(
             "Remesh the triangle mesh in IN (any format trimesh reads: ply obj stl off glb "
-            "...) by restricted Delaunay refinement of its signed distance. Closed meshes are "
-            "best; small holes are closed (winding number). Sharp creases are rounded within "
-            "the distance bound."
+            "...) by restricted Delaunay refinement of its signed distance. An open mesh's "
+            "holes are kept, their rims protected (or closed, with --holes fill). Sharp "
+            "creases are kept (--feature-angle)."
         ),
         epilog=_EPILOG,
     )
@@ -358,6 +358,13 @@ def _add_remesh_parser(sub) -> None:
         help="keep edges whose faces' normals differ by at least A degrees (default auto: "
         "60 unless the sharp edges look like noise; 0 = none)",
     )
+    rm.add_argument(
+        "--holes",
+        choices=("keep", "fill"),
+        default="keep",
+        help="an open mesh's holes: keep them, with their rims as the mesh's boundary "
+        "(default), or fill them (a closed mesh; the winding number's patches)",
+    )
     _add_output_options(rm)
     rm.set_defaults(run=_remesh)
 
@@ -377,7 +384,7 @@ def _feature_angle(text: str) -> float | str | None:
 
 
 def _remesh(args) -> int:
-    surface = _mesh_file_surface(args.input, args.feature_angle, _features(args))
+    surface = _mesh_file_surface(args.input, args.feature_angle, _features(args), args.holes)
     return _run(args, surface, **_run_options(args))
 
 

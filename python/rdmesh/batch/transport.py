@@ -40,8 +40,9 @@ def _own_pickling(cls: type) -> bool:
 
 
 def _mesh_surface(vertices: Any, faces: Any, name: str) -> MeshSurface:
-    # Its sharp edges and feature settings come back with the pickled state.
-    return MeshSurface((vertices, faces), name=name, feature_angle=None)
+    # Its sharp edges, feature settings and holes come back with the pickled
+    # state; ``faces`` already holds the caps over its holes, if any.
+    return MeshSurface((vertices, faces), name=name, feature_angle=None, holes="fill")
 
 
 def _volume_refusal(surface: VolumeSurface) -> NotSendable:

@@ -142,7 +142,7 @@ def protect(
     edge_size: Sizing,
     radius: float,
     sheets: tuple[np.ndarray, np.ndarray] | None = None,
-    boundary_sources: tuple[str, ...] = ("clip boundary",),
+    boundary_sources: tuple[str, ...] = ("clip boundary", "hole rim"),
     distance: float | None = None,
     shrink: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> Balls:

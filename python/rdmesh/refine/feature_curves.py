@@ -21,6 +21,7 @@ from ..features.graph import (
     given_curves,
 )
 from ..sampling.boundary import BoundaryCurve, project_onto_curve
+from ..surfaces._mesh_holes import RIM_SOURCE
 from ..surfaces.trilinear_kinks import KINK_SOURCE, kink_curves
 
 #: A given curve's points must lie within this of the surface (|f| / |grad f|), times R.
@@ -188,6 +189,10 @@ def feature_graph(
     for k, p in enumerate(getattr(surface, "sharp_curves", [])):
         # The mesh's own edges: the polyline is the curve.
         curves.append(curve_of_polyline(p, R, f"sharp edges {k}", "mesh"))
+    holes = getattr(surface, "holes", None)
+    for k, p in enumerate(holes.curves if holes is not None else []):
+        # An open mesh's rims, kept (the caps are cut off along them).
+        curves.append(curve_of_polyline(p, R, f"hole rim {k}", RIM_SOURCE))
     extra = np.zeros((0, 3))
     if boundary is not None and len(boundary.dense):
         curves += boundary_curves(surface, boundary)

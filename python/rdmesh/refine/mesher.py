@@ -44,6 +44,7 @@ from .criteria import FacetCriteria
 from .deviation import DeviationStage
 from .feature_curves import kink_balls
 from .floor import SpacingFloor
+from .hole_cut import cut_caps, rim_corners
 from .methods import METHODS, Plan, boundary_sizing
 from .phases import Phases
 from .pipeline import FacetPipeline
@@ -149,7 +150,7 @@ class Mesher:
         while True:
             mesh = _attempt(self, t0, evals0, ivals0, shrink)
             fixed = mesh.features is None or self.plan.balls_given  # balls placed beforehand
-            sites = None if fixed else repair_sites(mesh, REPAIR_ANGLE, kink_balls(self.plan))
+            sites = None if fixed else _repair_sites(mesh, self.plan)
             if sites is None or not len(sites[0]) or self.repairs == MAX_REPAIRS:
                 return mesh
             if self.budget.exceeded(len(mesh.vertices), time.perf_counter() - t0):
@@ -248,6 +249,11 @@ def _insert_stages(m: Mesher, points: np.ndarray, stages: np.ndarray) -> int:
     if len(names) == 1:
         return m._insert(points, names[0])
     return sum(m._insert(points[stages == name], name) for name in names)
+
+
+def _repair_sites(mesh: SurfaceMesh, plan: Plan):
+    """Where the next attempt shrinks the balls (:func:`repair_sites`)."""
+    return repair_sites(mesh, REPAIR_ANGLE, kink_balls(plan), rim_corners(mesh, plan))
 
 
 def forget_crossings(surface) -> None:
@@ -499,6 +505,9 @@ def _result(
     pockets = _pockets(m, faces)
     if pockets is not None:
         faces, centres = faces[pockets.keep], centres[pockets.keep]
+    caps = cut_caps(m.surface, plan.features, plan.balls, m.ball_ids, faces, centres)
+    if caps is not None:  # an open mesh's holes, kept
+        faces, centres = faces[caps.keep], centres[caps.keep]
     unresolved = np.concatenate(m.unresolved) if m.unresolved else np.zeros((0, 3))
     mesh = SurfaceMesh.from_facets(m.vertices, faces, centres, unresolved)
     if plan.balls is not None:
@@ -534,6 +543,9 @@ def _result(
                 pockets=pockets,
             )
         mesh.report["features"] = _features_report(mesh, plan)
+        if caps is not None:
+            mesh.report["holes"] = caps.as_report()
+            mesh.report["statement"] += " " + caps.statement()
         if m.creases is not None:
             mesh.report["creases"] = m.creases.as_report()
     except KeyboardInterrupt:

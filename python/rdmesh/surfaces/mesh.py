@@ -9,7 +9,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from .._validate import choice
 from ..features.sharp_edges import sharp_curves
+from ._mesh_holes import HOLES, close_holes, find_holes
 from ._mesh_input import bounding_sphere, fold_edges, oriented_mesh
 from ._mesh_queries import MeshQueries
 from ._mesh_report import MeshReport
@@ -21,6 +23,17 @@ def _sharp_angle(feature_angle: Any, features: Any) -> Any:
     ``features="none"`` protects nothing."""
     off = isinstance(features, str) and features == "none"
     return None if off else feature_angle
+
+
+def _holes(v, f, holes: str, features: Any):
+    """The holes :class:`MeshSurface` keeps (None with ``holes="fill"`` or none)."""
+    found = find_holes(v, f) if holes == "keep" else None
+    if found is not None and _sharp_angle(0, features) is None:
+        raise ValueError(
+            "holes='keep' protects the rims of an open mesh's holes, which features='none' "
+            "forbids: use holes='fill' with it"
+        )
+    return found
 
 
 class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
@@ -48,12 +61,28 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
         degrees, as on a coarse organic mesh): then none, with a warning.
     features : list of (m, 3) array_like, or "none", optional
         More feature curves (see :class:`ImplicitSurface`); "none" protects
-        nothing, sharp edges included.
+        nothing, sharp edges included (and needs ``holes="fill"`` on an open
+        mesh).
+    holes : {"keep", "fill"}, default "keep"
+        An open mesh's holes. "keep": the remesh has the input's boundary;
+        each hole's rim is a protected feature curve (split at turns of 60
+        degrees or more), the hole is closed while meshing by a cap (CGAL's
+        ``triangulate_hole_polyline`` over the rim; where a cap would cross
+        the mesh, by the winding number's patch), and the part of the remesh
+        on the caps is cut off along the rims (``report["holes"]``). Needs
+        ``method="boissonnat-oudot"``. "fill": the remesh is closed, the
+        holes patched by the surface where the winding number is 0.5.
 
     Attributes
     ----------
     vertices, faces : ndarray
-        The cleaned input, oriented so that its signed volume is positive.
+        The cleaned input, oriented so that its signed volume is positive;
+        with holes kept, ``faces`` ends with the caps over them.
+    input_face_count : int
+        The input's faces: ``faces[:input_face_count]``.
+    holes : Holes or None
+        The rims, their curves and the caps (``holes="keep"`` on an open
+        mesh), else None.
     sign_method : {"side", "winding"}
         How inside is told from outside (see Notes).
     cap : float
@@ -105,69 +134,50 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     samples of ``f``, no root searches); degenerate hits, and open meshes'
     segments near a hole, fall back to sampling ``f``.
 
-    **Sign.** Accepted inputs:
+    **Sign.** *Closed* meshes (every edge in two faces, consistently
+    oriented, manifold, not self-intersecting; open meshes with their holes
+    capped): the sign of ``(p - c) . n`` at the closest point ``c``, with
+    ``n`` the angle-weighted pseudo-normal there (exact for such meshes:
+    Baerentzen and Aanaes 2005), and CGAL's ``Side_of_triangle_mesh`` where
+    that is too close to call and for far points. *Everything else*: the
+    generalized winding number ``w`` (Jacobson et al. 2013; Barill et al.
+    2018), ``f = clip(4 (1 - 2w), -1, 1) * distance``, whose zero set closes
+    holes with the surface ``w = 0.5`` and gives the union of overlapping
+    parts. *Badly open* meshes (a flat patch) raise
+    :class:`~rdmesh.MeshInputError`: more than 20 % of the area next to
+    which ``w`` is farther than 0.25 from a whole number, or caps that
+    enclose no volume.
 
-    - *Closed* meshes (every edge in two faces, consistently oriented,
-      combinatorially manifold, no face of zero area, not self-intersecting):
-      the sign of ``(p - c) . n`` at the closest point ``c``, with ``n`` the
-      angle-weighted pseudo-normal of the face, edge or vertex ``c`` lies on
-      (exact for such meshes: Baerentzen and Aanaes 2005); CGAL's
-      ``Side_of_triangle_mesh`` (ray casting with exact predicates) where
-      that product is too close to 0, for far points, and for every point if
-      a face's normal points into the solid. Inward-oriented meshes
-      (negative volume) are flipped first.
-    - *Everything else*: the generalized winding number ``w`` (Jacobson et
-      al. 2013; far clusters by their dipole, Barill et al. 2018, within a
-      few percent), ``f = clip(4 (1 - 2w), -1, 1) * distance``. Away from
-      holes ``w`` is a whole number and ``f`` is the signed distance; across
-      a hole ``w`` passes 0.5 smoothly, so the zero set closes the hole with
-      the surface ``w = 0.5`` and ``f`` stays continuous (a half sphere
-      becomes a closed half ball this way). Self-intersecting meshes
-      (overlapping closed parts) give their union (``w >= 1`` inside).
-      Inconsistently oriented faces are not repaired: ``w`` is then wrong
-      near them.
-    - *Badly open* meshes (a flat patch, a single triangle): if faces next
-      to which ``w`` is farther than 0.25 from a whole number hold more than
-      20 % of the area, :class:`~rdmesh.MeshInputError` is raised; a smaller
-      nonzero share is logged as a warning.
-
-    **What the remesh guarantees.** The zero set of ``f`` is the input mesh
-    (plus hole patches), but it is piecewise flat and ``f`` has a kink on the
-    medial axis, which reaches the surface at every concave edge, so the
-    theorems for smooth surfaces do not apply. What holds by construction,
-    for a run that ends with ``complete=True``: every angle is at least the
-    angle bound, every surface Delaunay ball is below the size bound, every
-    facet's circumcentre is within the distance bound of its surface centre,
-    every vertex lies on the input (to rounding, or the root tolerance where
-    sampled), and every output triangle lies in a surface Delaunay ball
-    centred on the input, so it is within the size bound of the input.
-    **Both ways** (closed): the input's vertices and creased edges and the output's edge
-    midpoints are measured against the other surface, and input points beyond the distance
-    bound inserted (``stats["distance_check"]``; :mod:`rdmesh.refine.deviation`). Keeping
-    the input's topology is sampled, not proven: it holds when the size bound is below the
-    feature size of the shape the mesh approximates (scans, organic shapes). Sharp creases
-    (CAD models) are kept through ``feature_angle``: each sharp-edge chain is
-    covered by protecting balls centred on the input's own edges (the output
-    has a vertex at every corner and edges along every chain;
-    ``SurfaceMesh.features`` reports the check). Razor-thin wedges (two
-    faces folded onto each other, as noise flips a sliver) have no feature
-    size: refinement points there fall below the spacing floor and are
-    refused, and the mesh comes back with ``complete=False`` (or at the
-    vertex budget), perhaps not closed.
+    **What the remesh guarantees** (a run that ends with ``complete=True``; the
+    input is piecewise flat, so the smooth-surface theorems do not apply):
+    every angle is at least the angle bound (20 degrees next to protecting
+    balls; not enforced at rim corners), every surface Delaunay ball is below
+    the size bound, every facet's circumcentre is within the distance bound of
+    its surface centre, and every vertex lies on the input (or on what closes a
+    hole, with ``holes="fill"``). The distance bound is also measured both ways
+    on closed inputs (:mod:`rdmesh.refine.deviation`). Keeping the input's
+    topology is sampled, not proven; sharp creases are kept through
+    ``feature_angle`` (``SurfaceMesh.features`` reports the check). Razor-thin
+    wedges (folds) have no feature size: runs that resolve them end with
+    ``complete=False``. The user guide's "Triangle meshes" page has the details.
     """
 
     def __init__(
-        self, mesh: Any, *, name: str = "mesh", feature_angle: Any = "auto", features: Any = None
-    ) -> None:
+        self, mesh: Any, *, name: str = "mesh", feature_angle: Any = "auto", features: Any = None,
+        holes: str = "keep",
+    ) -> None:  # fmt: skip
+        choice("holes", holes, HOLES)
         self.vertices, self.faces, norms, self._normals = oriented_mesh(mesh)
+        n = self.input_face_count = len(self.faces)
+        self.holes = _holes(self.vertices, self.faces, holes, features)
         centre, radius = bounding_sphere(self.vertices)
-        self._start_queries(radius)
-        self.fold_edges = fold_edges(self.faces, self._normals)
+        norms = close_holes(self, norms, radius)  # and _start_queries
+        self.fold_edges = fold_edges(self.faces[:n], self._normals[:n])
         self.folds = len(self.fold_edges)
         self._set_sign(norms)
         self._find_self_intersections()
         self.feature_angle, self.sharp_edges, self.sharp_curves = sharp_curves(
-            self.vertices, self.faces, _sharp_angle(feature_angle, features)
+            self.vertices, self.faces[:n], _sharp_angle(feature_angle, features)
         )
         super().__init__(
             self._signed_distance, (centre, radius), gradient=self._gradient, name=name,

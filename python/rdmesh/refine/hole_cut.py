@@ -1,0 +1,117 @@
+"""Cutting the caps off the remesh of an open mesh whose holes are kept.
+
+:class:`~rdmesh.MeshSurface` closes an open mesh's holes (caps, or the
+winding number's patches) and protects their rims; the remesh of the closed
+surface then has an edge chain along each rim (the feature check says whether
+it does). The facets split into regions that meet only across those chains;
+a region whose facets lie mostly on what closes a hole is cut off.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from ..surfaces._mesh_holes import RIM_SOURCE, on_caps
+
+
+@dataclass
+class CapCut:
+    """What was cut: ``keep`` per facet, the rims, the faces and regions cut,
+    and the regions that held both (a rim chain missing: nothing cut there)."""
+
+    keep: np.ndarray
+    rims: int
+    faces_cut: int
+    regions_cut: int
+    mixed: int
+    closed_by: str
+
+    def as_report(self) -> dict:
+        return {
+            "rims": self.rims,
+            "faces_cut": self.faces_cut,
+            "regions_cut": self.regions_cut,
+            "mixed_regions": self.mixed,
+            "closed_by": self.closed_by,
+        }
+
+    def statement(self) -> str:
+        """What the report says of the holes."""
+        s = (
+            f"The input's {self.rims} holes are kept: what closed them while meshing (the "
+            f"{self.closed_by}) was cut off along their protected rims ({self.faces_cut} "
+            "faces)."
+        )
+        if self.mixed:
+            s += (
+                f" {self.mixed} regions lie partly on a hole's closure (a rim's edges missing "
+                "from the mesh); each was kept or cut whole, by what most of it lies on."
+            )
+        return s
+
+
+#: A region is mixed when between these shares of its facets lie on a cap.
+MIXED = (0.1, 0.9)
+
+
+def cut_caps(surface, graph, balls, ball_ids, tri: np.ndarray, centres: np.ndarray):
+    """The facets ``tri`` (sample ids) to keep, or None when ``surface`` keeps no holes.
+
+    ``graph`` and ``balls`` are the run's feature curves and protecting balls,
+    ``ball_ids`` the sample id of each ball."""
+    holes = getattr(surface, "holes", None)
+    if holes is None or not holes.curves or balls is None or graph is None:
+        return None
+    rim_curve = np.array([c.source == RIM_SOURCE for c in graph.curves], bool)
+    pairs = balls.pairs[rim_curve[balls.pair_curve]] if len(balls.pairs) else balls.pairs
+    rim = ball_ids[pairs]
+    n = int(max(tri.max(initial=0), rim.max(initial=0))) + 1
+    rim_keys = np.sort(np.minimum(rim[:, 0], rim[:, 1]) * n + np.maximum(rim[:, 0], rim[:, 1]))
+    # Facets that share an edge, unless the edge is a rim's.
+    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    key = np.minimum(e[:, 0], e[:, 1]) * n + np.maximum(e[:, 0], e[:, 1])
+    facet = np.tile(np.arange(len(tri)), 3)
+    order = np.argsort(key, kind="stable")
+    key, facet = key[order], facet[order]
+    same = key[1:] == key[:-1]
+    at = np.clip(np.searchsorted(rim_keys, key[1:]), 0, max(len(rim_keys) - 1, 0))
+    on_rim = (rim_keys[at] == key[1:]) if len(rim_keys) else np.zeros(len(same), bool)
+    link = same & ~on_rim
+    m = len(tri)
+    g = coo_matrix((np.ones(int(link.sum())), (facet[:-1][link], facet[1:][link])), shape=(m, m))
+    k, region = connected_components(g, directed=False)
+    on = on_caps(surface, centres)
+    share = np.bincount(region, on, k) / np.maximum(np.bincount(region, minlength=k), 1)
+    cut = share > 0.5
+    keep = ~cut[region]
+    capped = len(np.unique(holes.cap_rim))
+    closed_by = (
+        "caps" if capped == len(holes.rims)
+        else "winding number" if capped == 0
+        else f"caps ({capped}) and the winding number ({len(holes.rims) - capped})"
+    )  # fmt: skip
+    mixed = int(np.count_nonzero((share > MIXED[0]) & (share < MIXED[1])))
+    return CapCut(keep, len(holes.rims), int(np.count_nonzero(~keep)), int(cut.sum()), mixed,
+                  closed_by)  # fmt: skip
+
+
+def rim_corners(mesh, plan) -> np.ndarray | None:
+    """Mesh vertex ids of the corners where only rims of kept holes end (their
+    angles are the input's jagged rim's: no repair raises them), or None."""
+    graph = plan.features
+    if mesh.features is None or graph is None or not len(graph.corners):
+        return None
+    rim = np.array([c.source == RIM_SOURCE for c in graph.curves], bool)
+    if not rim.any():
+        return None
+    other = np.zeros(len(graph.corners), bool)
+    for side in (0, 1):
+        e = graph.ends[:, side]
+        other[e[(e >= 0) & ~rim]] = True
+    ids = mesh.features.corners
+    return ids[(ids >= 0) & ~other[: len(ids)]]
+

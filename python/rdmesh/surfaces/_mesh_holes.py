@@ -1,0 +1,198 @@
+"""An open mesh's holes, kept: their rims as feature curves, and caps that close them.
+
+``MeshSurface(mesh, holes="keep")`` closes each hole of an open mesh with a
+cap (CGAL's ``triangulate_hole_polyline`` over its rim), so that the fast
+closed-mesh oracle applies (the angle-weighted pseudo-normal's sign, exact
+crossings, the Lipschitz clearing), and protects each rim as a feature curve
+(source :data:`RIM_SOURCE`). The remesh of the capped mesh then has an edge
+chain along every rim, and :mod:`rdmesh.refine.hole_cut` cuts the caps' part
+off along those chains. Where the caps cannot close the mesh (a cap crosses
+the mesh, or the mesh is not consistently oriented), the winding number's
+patches close the holes instead, and the cut tells them apart by the winding
+number.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._errors import MeshInputError
+from ..core import _rdt as core
+from ..features.sharp_edges import chain_edges
+
+#: Where the feature curves come from: the rims (boundaries of a mesh with holes kept).
+RIM_SOURCE = "hole rim"
+#: A rim turning by at least this many degrees at a vertex has a corner there
+#: (a curve's balls cannot shrink around a sharp turn without one).
+RIM_TURN = 60.0
+#: ``holes=`` choices of :class:`~rdmesh.MeshSurface`.
+HOLES = ("keep", "fill")
+
+
+@dataclass
+class Holes:
+    """The holes of an open mesh, as :class:`~rdmesh.MeshSurface` keeps them.
+
+    Attributes
+    ----------
+    rims : list of (k,) int64
+        Each rim's vertices in the order of its faces' half-edges.
+    curves : list of (k, 3) float64
+        The rims as polylines, split at corners (turns of :data:`RIM_TURN` or
+        more); a closed loop repeats its first point.
+    caps : (c, 3) int64
+        Triangles over the rims (no new vertices), oriented as the faces.
+    cap_rim : (c,) int64
+        The rim each cap triangle closes.
+    """
+
+    rims: list[np.ndarray]
+    curves: list[np.ndarray]
+    caps: np.ndarray
+    cap_rim: np.ndarray
+
+    def drop_caps(self, faces: np.ndarray) -> int:
+        """Forget the caps of the rims that the cap triangles ``faces`` (indices
+        into ``caps``) close; how many rims lost their cap."""
+        bad = np.unique(self.cap_rim[faces])
+        keep = ~np.isin(self.cap_rim, bad)
+        self.caps, self.cap_rim = self.caps[keep], self.cap_rim[keep]
+        return len(bad)
+
+
+def rim_half_edges(faces: np.ndarray) -> np.ndarray:
+    """``(k, 2)``: the half-edges ``(a, b)`` of faces whose edge no other face has."""
+    h = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    n = int(faces.max()) + 1
+    key = np.minimum(h[:, 0], h[:, 1]) * n + np.maximum(h[:, 0], h[:, 1])
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    once = np.r_[True, k[1:] != k[:-1]] & np.r_[k[1:] != k[:-1], True]
+    return h[order[once]]
+
+
+def rim_loops(half: np.ndarray) -> list[np.ndarray]:
+    """The rims as vertex loops, following the half-edges ``(a, b)``; None when a
+    vertex starts other than one rim half-edge (a rim that touches itself or
+    inconsistently oriented faces)."""
+    starts, counts = np.unique(half[:, 0], return_counts=True)
+    if len(half) == 0 or counts.max() > 1 or not np.array_equal(np.sort(half[:, 1]), starts):
+        return None
+    nxt = dict(zip(half[:, 0].tolist(), half[:, 1].tolist(), strict=True))
+    loops, seen = [], set()
+    for a in half[:, 0].tolist():
+        if a in seen:
+            continue
+        loop = [a]
+        seen.add(a)
+        b = nxt[a]
+        while b != a:
+            loop.append(b)
+            seen.add(b)
+            b = nxt[b]
+        loops.append(np.array(loop, np.int64))
+    return loops
+
+
+def cap(vertices: np.ndarray, loop: np.ndarray) -> np.ndarray:
+    """Triangles over one rim (vertex ids), oriented against the rim's half-edges
+    (so that the cap's edges pair with the faces'); empty when CGAL finds none."""
+    tri = core.fill_hole(vertices[loop])
+    if len(tri) == 0:
+        return np.zeros((0, 3), np.int64)
+    t = loop[tri]
+    # The face has (a, b); the cap must have (b, a).
+    a, b = loop[0], loop[1]
+    h = np.stack([t, np.roll(t, -1, axis=1)], axis=2).reshape(-1, 2)
+    same = np.any((h[:, 0] == a) & (h[:, 1] == b))
+    return t[:, ::-1].copy() if same else t
+
+
+def find_holes(vertices: np.ndarray, faces: np.ndarray) -> Holes | None:
+    """The holes of a mesh (None when it has none); ``caps`` empty when a rim
+    cannot be followed or a hole cannot be triangulated."""
+    half = rim_half_edges(faces)
+    if len(half) == 0:
+        return None
+    chains, closed = chain_edges(vertices, np.sort(half, axis=1), RIM_TURN)
+    curves = [
+        vertices[np.r_[c, c[:1]]] if cl else vertices[c]
+        for c, cl in zip(chains, closed, strict=True)
+    ]
+    loops = rim_loops(half)
+    if loops is None:
+        return Holes([], curves, np.zeros((0, 3), np.int64), np.zeros(0, np.int64))
+    caps = [cap(vertices, loop) for loop in loops]
+    rim = np.concatenate([np.full(len(c), k) for k, c in enumerate(caps)]).astype(np.int64)
+    return Holes(loops, curves, np.concatenate(caps), rim)
+
+
+def with_caps(
+    f: np.ndarray, norms: np.ndarray, normals: np.ndarray, v: np.ndarray, holes: Holes | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The faces, their doubled areas and unit normals with the caps appended,
+    all turned so that the (closed) mesh's signed volume is positive."""
+    if holes is None or not len(holes.caps):
+        return f, norms, normals
+    c = holes.caps
+    area = np.cross(v[c[:, 1]] - v[c[:, 0]], v[c[:, 2]] - v[c[:, 0]])
+    cn = np.linalg.norm(area, axis=1)
+    f = np.concatenate([f, c])
+    norms = np.concatenate([norms, cn])
+    normals = np.concatenate([normals, area / np.where(cn > 0, cn, 1.0)[:, None]])
+    if float(np.einsum("ij,ij->", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]]))) < 0:
+        f, normals = f[:, ::-1].copy(), -normals
+    return f, norms, normals
+
+
+#: A mesh closed by caps that encloses less than this share of the volume of a
+#: ball of its area (``36 pi V^2 / A^3``) is flat: too open to have an inside
+#: (a plate 1000 times wider than thick: 1.4e-5).
+FLAT = 1e-6
+
+
+def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
+    """Append the caps over ``surface.holes`` to ``surface.faces`` and build its
+    queries (``_start_queries``), without the caps that cross the mesh (those
+    holes are closed by the winding number's patches); returns the faces'
+    doubled areas.
+
+    Raises
+    ------
+    rdmesh.MeshInputError
+        The capped mesh encloses no volume (a flat patch).
+    """
+    v, inputs = surface.vertices, (surface.faces, norms, surface._normals)
+    surface.faces, norms, surface._normals = with_caps(*inputs, v, surface.holes)
+    n = len(inputs[0])
+    if len(surface.faces) > n:
+        f = surface.faces
+        volume = abs(float(np.einsum("ij,ij->", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]])))) / 6
+        if 36 * np.pi * volume**2 <= FLAT * (0.5 * float(norms.sum())) ** 3:
+            raise MeshInputError(
+                "the mesh is too open to tell inside from outside: closed by caps over its "
+                f"{len(surface.holes.rims)} holes it encloses no volume (a flat patch?)"
+            )
+    surface._start_queries(radius)
+    crossing = surface._core.self_intersections() if len(surface.faces) > n else ()
+    if len(crossing) and surface.holes.drop_caps(crossing[crossing >= n] - n):
+        surface.faces, norms, surface._normals = with_caps(*inputs, v, surface.holes)
+        surface._start_queries(radius)
+    return norms
+
+
+#: A facet's surface centre farther than this (times R) from the input's faces
+#: lies on a winding-number patch (input facets' centres are crossings of faces).
+OFF_INPUT = 1e-7
+
+
+def on_caps(surface, centres: np.ndarray) -> np.ndarray:
+    """``(k,)`` bool: which facets of a remesh of ``surface`` (a mesh with its holes
+    kept) lie on what closes a hole, by their surface centres ``(k, 3)``: on a cap
+    face, or (winding-number patches) off the input's faces."""
+    if len(centres) == 0:
+        return np.zeros(0, bool)
+    dist, _, face, _ = surface._core.query(np.ascontiguousarray(centres, np.float64))
+    return (face >= surface.input_face_count) | (dist > OFF_INPUT * surface.radius)

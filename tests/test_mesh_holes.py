@@ -1,0 +1,133 @@
+"""Open meshes remeshed with their holes kept (MeshSurface(holes="keep"))."""
+
+import numpy as np
+import pytest
+import rdmesh
+import trimesh
+from rdmesh.surfaces import _mesh_holes
+from rdmesh.topology.complex import component_topology
+
+
+def _open_sphere(cut_z=(0.6,), subdivisions=3):
+    """An icosphere without the faces above each plane z = c (or below -c for
+    negative c): a sphere with holes."""
+    s = trimesh.creation.icosphere(subdivisions=subdivisions)
+    z = s.triangles_center[:, 2]
+    keep = np.ones(len(s.faces), bool)
+    for c in cut_z:
+        keep &= z < c if c > 0 else z > c
+    return np.asarray(s.vertices), np.asarray(s.faces)[keep]
+
+
+def _rim_points(v, f):
+    half = _mesh_holes.rim_half_edges(f)
+    return v[half[:, 0]], v[half[:, 1]]
+
+
+def _distance_to_segments(p, a, b):
+    d = b - a
+    t = np.clip(np.einsum("kij,ij->ki", p[:, None] - a[None], d) / np.einsum("ij,ij->i", d, d),
+                0, 1)  # fmt: skip
+    q = a[None] + t[..., None] * d[None]
+    return np.linalg.norm(p[:, None] - q, axis=2).min(axis=1)
+
+
+def _boundary_vertices(faces):
+    half = _mesh_holes.rim_half_edges(faces)
+    return np.unique(half)
+
+
+@pytest.mark.parametrize("cuts, loops", [((0.6,), 1), ((0.6, -0.6), 2)])
+def test_holes_kept_give_the_inputs_topology(cuts, loops):
+    v, f = _open_sphere(cuts)
+    surface = rdmesh.MeshSurface((v, f))
+    assert surface.holes is not None and len(surface.holes.rims) == loops
+    assert len(surface.faces) > surface.input_face_count  # capped while meshing
+    mesh = rdmesh.mesh_surface(surface, radius_bound=0.15, distance_bound=0.01)
+    assert mesh.complete
+    chi, bl = component_topology(mesh.faces, len(mesh.vertices))
+    in_chi, in_bl = component_topology(f, len(v))
+    assert list(chi) == list(in_chi) == [2 - loops]
+    assert list(bl) == list(in_bl) == [loops]
+    assert mesh.report["holes"]["rims"] == loops
+    assert mesh.report["holes"]["closed_by"] == "caps"
+    assert mesh.report["holes"]["mixed_regions"] == 0
+    # Nothing of the caps is left: every output vertex lies on the input's
+    # faces, and every facet's centroid is nearest to one of them, within the
+    # size bound (the triangle lies in a surface Delaunay ball on the input).
+    inp = rdmesh.MeshSurface((v, f), holes="fill")
+    dv = np.abs(inp.signed_distance(mesh.vertices))
+    assert dv.max() < 1e-9
+    cent = mesh.vertices[mesh.faces].mean(axis=1)
+    closest, face = surface.closest_points(cent)
+    assert np.all(face < surface.input_face_count)
+    assert np.linalg.norm(cent - closest, axis=1).max() <= 0.15
+    # The output's boundary lies on the input's rims.
+    a, b = _rim_points(surface.vertices, surface.faces[: surface.input_face_count])
+    rim_out = mesh.vertices[_boundary_vertices(mesh.faces)]
+    assert _distance_to_segments(rim_out, a, b).max() < 1e-9
+
+
+def test_holes_fill_closes_them():
+    v, f = _open_sphere((0.6,))
+    surface = rdmesh.MeshSurface((v, f), holes="fill")
+    assert surface.holes is None and len(surface.faces) == surface.input_face_count
+    mesh = rdmesh.mesh_surface(surface, radius_bound=0.15, distance_bound=0.01)
+    assert mesh.is_closed_manifold()
+    assert "holes" not in mesh.report
+
+
+def test_holes_kept_with_the_winding_numbers_patches(monkeypatch):
+    """Where no cap can be made, the winding number closes the holes, and the
+    cut tells its patches apart from the faces."""
+    monkeypatch.setattr(_mesh_holes.core, "fill_hole", lambda p: np.zeros((0, 3), np.int64))
+    v, f = _open_sphere((0.6,))
+    surface = rdmesh.MeshSurface((v, f))
+    assert len(surface.faces) == surface.input_face_count
+    assert surface.sign_method == "winding"
+    mesh = rdmesh.mesh_surface(surface, radius_bound=0.15, distance_bound=0.01)
+    chi, bl = component_topology(mesh.faces, len(mesh.vertices))
+    assert list(chi) == [1] and list(bl) == [1]
+    assert mesh.report["holes"]["closed_by"] == "winding number"
+    assert np.abs(surface.signed_distance(mesh.vertices)).max() < 1e-6
+
+
+def test_closed_mesh_has_no_holes():
+    s = trimesh.creation.icosphere(subdivisions=2)
+    surface = rdmesh.MeshSurface(s)
+    assert surface.holes is None
+    assert len(surface.faces) == surface.input_face_count
+
+
+def test_cap_is_oriented_against_the_rim():
+    v, f = _open_sphere((0.6,))
+    holes = _mesh_holes.find_holes(v, f)
+    closed = np.concatenate([f, holes.caps])
+    e = np.concatenate([closed[:, [0, 1]], closed[:, [1, 2]], closed[:, [2, 0]]])
+    # Every directed edge once, and its reverse once: closed and oriented.
+    key = e[:, 0] * len(v) + e[:, 1]
+    rev = e[:, 1] * len(v) + e[:, 0]
+    assert len(np.unique(key)) == len(key)
+    assert np.isin(rev, key).all()
+
+
+def test_bad_holes_choice_and_conflicts():
+    v, f = _open_sphere((0.6,))
+    with pytest.raises(ValueError, match="holes"):
+        rdmesh.MeshSurface((v, f), holes="close")
+    with pytest.raises(ValueError, match="features='none'"):
+        rdmesh.MeshSurface((v, f), features="none")
+    rdmesh.MeshSurface((v, f), features="none", holes="fill")  # allowed
+    surface = rdmesh.MeshSurface((v, f))
+    with pytest.raises(ValueError, match="holes='fill'"):
+        rdmesh.mesh_surface(surface, method="topological-ball", radius_bound=0.2)
+
+
+def test_fill_hole_binding_refuses_short_rims():
+    from rdmesh.core import _rdt
+
+    with pytest.raises(ValueError, match="at least 3"):
+        _rdt.fill_hole(np.zeros((2, 3)))
+    t = np.linspace(0, 2 * np.pi, 7)[:-1]
+    tri = _rdt.fill_hole(np.c_[np.cos(t), np.sin(t), np.zeros(6)])
+    assert tri.shape == (4, 3) and set(np.unique(tri)) == set(range(6))
