@@ -175,4 +175,3 @@ def _smallest_angle_at(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     p = vertices[faces]
     opposite = np.linalg.norm(p[:, [1, 2, 0]] - p[:, [2, 0, 1]], axis=2)
     return faces[np.arange(len(faces)), np.argmin(opposite, axis=1)]
-

@@ -114,4 +114,3 @@ def rim_corners(mesh, plan) -> np.ndarray | None:
         other[e[(e >= 0) & ~rim]] = True
     ids = mesh.features.corners
     return ids[(ids >= 0) & ~other[: len(ids)]]
-
