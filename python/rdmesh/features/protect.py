@@ -12,7 +12,8 @@ Sizes. The spacing ``h`` of the centres along a curve is at most:
 
 * ``edge_size`` (CGAL's name: the largest length of a mesh edge along a curve);
 * half the curve's radius of curvature (so that a chord of two steps stays
-  longer than two radii), and ``sqrt(8 d / kappa)`` for a distance bound d
+  longer than two radii), ``sqrt(8 d / kappa)`` for a distance bound d, and
+  ``4 d / t`` next to a polyline vertex that turns by ``t`` radians
   (a chord's sagitta);
 * the distance to other curves (or to far parts of the same curve) / 2.1, as
   Mesh_3's ``refine_balls`` shrinks balls;
@@ -135,6 +136,7 @@ class _Dense:
     s: np.ndarray
     x: np.ndarray
     kappa: np.ndarray  # curvature estimate at each point
+    turn: np.ndarray  # the larger turning angle (radians) at its segment's two vertices
 
 
 def protect(
@@ -398,8 +400,12 @@ def _densify(curve, h: float) -> _Dense:
     k_seg = np.maximum(k_v, k_next)[: len(seg)] if n > 1 else np.zeros(len(seg))
     kappa = np.repeat(k_seg, per)
     if not curve.closed:
-        kappa = np.r_[kappa, k_v[-1]]
-    return _Dense(s, x, kappa)
+        angle[[0, -1]] = 0.0
+    a_next = np.roll(angle, -1) if curve.closed else np.r_[angle[1:], 0.0]
+    turn = np.repeat(np.maximum(angle, a_next)[: len(seg)] if n > 1 else np.zeros(len(seg)), per)
+    if not curve.closed:
+        kappa, turn = np.r_[kappa, k_v[-1]], np.r_[turn, 0.0]
+    return _Dense(s, x, kappa, turn)
 
 
 def _lipschitz(h: np.ndarray, s: np.ndarray, closed: bool, length: float) -> np.ndarray:
@@ -455,6 +461,9 @@ def _place(graph, dense, edge_size, sheets, distance, shrink, floor) -> _State:
         h = np.minimum(h, CURVATURE / np.maximum(d.kappa, 1e-300))
         if distance is not None:
             h = np.minimum(h, np.sqrt(8.0 * distance / np.maximum(d.kappa, 1e-300)))
+            # A chord across a polyline vertex that turns by t strays about
+            # h t / 4 from it, more than the smooth estimate where h is short.
+            h = np.minimum(h, 4.0 * distance / np.maximum(d.turn, 1e-300))
         if sheets is not None:
             far = ~near_corner[offsets[i] : offsets[i + 1]]
             h[far] = np.minimum(h[far], _sheet_gap(d.x[far], sheets, h[far]))
