@@ -131,3 +131,22 @@ def test_fill_hole_binding_refuses_short_rims():
     t = np.linspace(0, 2 * np.pi, 7)[:-1]
     tri = _rdt.fill_hole(np.c_[np.cos(t), np.sin(t), np.zeros(6)])
     assert tri.shape == (4, 3) and set(np.unique(tri)) == set(range(6))
+
+
+def test_chords_between_balls_stay_near_a_zigzag_polyline():
+    """The spacing next to a polyline vertex that turns by t is at most 4 d / t,
+    so the chords between consecutive ball centres stay within about d of
+    every vertex of the polyline, however short its segments."""
+    from rdmesh.features.graph import build_graph, curve_of_polyline
+    from rdmesh.features.protect import protect
+
+    x = np.linspace(0.0, 2.0, 41)
+    poly = np.c_[x, 0.02 * (np.arange(41) % 2), np.zeros(41)]  # teeth 0.02 high, 50 deg turns
+    graph = build_graph([curve_of_polyline(poly, 1.0, "zigzag", "given")], 1.0)
+    d = 0.002
+    balls = protect(graph, lambda p: np.full(len(p), 0.3), 1.0, distance=d)
+    a, b = balls.centres[balls.pairs[:, 0]], balls.centres[balls.pairs[:, 1]]
+    far = _distance_to_segments(poly, a, b)
+    assert far.max() <= 1.05 * d
+    # Without the rule the smooth estimate alone lets the chords skip the teeth.
+    assert len(balls.centres) > 2.0 / 0.3 + 1

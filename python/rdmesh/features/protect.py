@@ -404,7 +404,8 @@ def _densify(curve, h: float) -> _Dense:
     a_next = np.roll(angle, -1) if curve.closed else np.r_[angle[1:], 0.0]
     turn = np.repeat(np.maximum(angle, a_next)[: len(seg)] if n > 1 else np.zeros(len(seg)), per)
     if not curve.closed:
-        kappa, turn = np.r_[kappa, k_v[-1]], np.r_[turn, 0.0]
+        # The end's spacing bounds its corner ball: the last segment's turn.
+        kappa, turn = np.r_[kappa, k_v[-1]], np.r_[turn, turn[-1:] if len(turn) else 0.0]
     return _Dense(s, x, kappa, turn)
 
 
