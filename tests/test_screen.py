@@ -339,4 +339,7 @@ def test_closed_mesh_sphere_is_clear():
     r = surface.radius * rng.uniform(1.0, 3.0, size=(5000, 1))
     assert (surface(surface.centre + r * u) > 0).all()
     v, f = surface.vertices, surface.faces
-    assert not rdmesh.MeshSurface((v, f[1:])).sphere_clear
+    assert not rdmesh.MeshSurface((v, f[1:]), holes="fill").sphere_clear
+    # Its hole kept, the open mesh is capped while meshing: closed, so clear.
+    capped = rdmesh.MeshSurface((v, f[1:]))
+    assert capped.sphere_clear and (capped(capped.centre + r * u) > 0).all()
