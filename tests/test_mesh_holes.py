@@ -150,3 +150,19 @@ def test_chords_between_balls_stay_near_a_zigzag_polyline():
     assert far.max() <= 1.05 * d
     # Without the rule the smooth estimate alone lets the chords skip the teeth.
     assert len(balls.centres) > 2.0 / 0.3 + 1
+
+
+def test_rims_that_cannot_be_protected_leave_the_caps_and_say_so(monkeypatch):
+    from rdmesh.features import FeatureError
+    from rdmesh.refine import methods
+
+    def refuse(*args, **kwargs):
+        raise FeatureError("no balls here")
+
+    monkeypatch.setattr(methods, "protect", refuse)
+    v, f = _open_sphere((0.6,))
+    mesh = rdmesh.mesh_surface(rdmesh.MeshSurface((v, f)), radius_bound=0.2)
+    assert not mesh.complete and "not protected" in mesh.stats["stop_reason"]
+    assert mesh.report["holes"]["cut"] is False and mesh.report["holes"]["faces_cut"] == 0
+    assert "could not be kept" in mesh.report["statement"]
+    assert mesh.is_closed_manifold()  # closed by the caps, and said so

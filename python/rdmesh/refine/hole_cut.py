@@ -21,7 +21,9 @@ from ..surfaces._mesh_holes import RIM_SOURCE, on_caps
 @dataclass
 class CapCut:
     """What was cut: ``keep`` per facet, the rims, the faces and regions cut,
-    and the regions that held both (a rim chain missing: nothing cut there)."""
+    the regions that lay partly on both (a rim chain missing), what closed the
+    holes, and whether the rims were protected at all (``cut`` False: nothing
+    could be cut)."""
 
     keep: np.ndarray
     rims: int
@@ -29,6 +31,7 @@ class CapCut:
     regions_cut: int
     mixed: int
     closed_by: str
+    cut: bool = True
 
     def as_report(self) -> dict:
         return {
@@ -37,10 +40,16 @@ class CapCut:
             "regions_cut": self.regions_cut,
             "mixed_regions": self.mixed,
             "closed_by": self.closed_by,
+            "cut": self.cut,
         }
 
     def statement(self) -> str:
         """What the report says of the holes."""
+        if not self.cut:
+            return (
+                f"The input's {self.rims} holes could not be kept (their rims were not "
+                f"protected): the mesh is closed over them by the {self.closed_by}."
+            )
         s = (
             f"The input's {self.rims} holes are kept: what closed them while meshing (the "
             f"{self.closed_by}) was cut off along their protected rims ({self.faces_cut} "
@@ -64,8 +73,16 @@ def cut_caps(surface, graph, balls, ball_ids, tri: np.ndarray, centres: np.ndarr
     ``graph`` and ``balls`` are the run's feature curves and protecting balls,
     ``ball_ids`` the sample id of each ball."""
     holes = getattr(surface, "holes", None)
-    if holes is None or not holes.curves or balls is None or graph is None:
+    if holes is None or not holes.curves:
         return None
+    capped = len(np.unique(holes.cap_rim))
+    closed_by = (
+        "caps" if capped == len(holes.rims)
+        else "winding number" if capped == 0
+        else f"caps ({capped}) and the winding number ({len(holes.rims) - capped})"
+    )  # fmt: skip
+    if balls is None or graph is None:  # the rims' protection failed
+        return CapCut(np.ones(len(tri), bool), len(holes.rims), 0, 0, 0, closed_by, cut=False)
     rim_curve = np.array([c.source == RIM_SOURCE for c in graph.curves], bool)
     pairs = balls.pairs[rim_curve[balls.pair_curve]] if len(balls.pairs) else balls.pairs
     rim = ball_ids[pairs]
@@ -88,12 +105,6 @@ def cut_caps(surface, graph, balls, ball_ids, tri: np.ndarray, centres: np.ndarr
     share = np.bincount(region, on, k) / np.maximum(np.bincount(region, minlength=k), 1)
     cut = share > 0.5
     keep = ~cut[region]
-    capped = len(np.unique(holes.cap_rim))
-    closed_by = (
-        "caps" if capped == len(holes.rims)
-        else "winding number" if capped == 0
-        else f"caps ({capped}) and the winding number ({len(holes.rims) - capped})"
-    )  # fmt: skip
     mixed = int(np.count_nonzero((share > MIXED[0]) & (share < MIXED[1])))
     return CapCut(keep, len(holes.rims), int(np.count_nonzero(~keep)), int(cut.sum()), mixed,
                   closed_by)  # fmt: skip

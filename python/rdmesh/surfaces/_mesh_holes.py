@@ -6,10 +6,9 @@ closed-mesh oracle applies (the angle-weighted pseudo-normal's sign, exact
 crossings, the Lipschitz clearing), and protects each rim as a feature curve
 (source :data:`RIM_SOURCE`). The remesh of the capped mesh then has an edge
 chain along every rim, and :mod:`rdmesh.refine.hole_cut` cuts the caps' part
-off along those chains. Where the caps cannot close the mesh (a cap crosses
-the mesh, or the mesh is not consistently oriented), the winding number's
-patches close the holes instead, and the cut tells them apart by the winding
-number.
+off along those chains. A hole whose cap would cross the mesh is closed by
+the winding number's patch instead, which the cut tells apart from the faces
+by its facets' distance to them.
 """
 
 from __future__ import annotations
@@ -192,7 +191,12 @@ def on_caps(surface, centres: np.ndarray) -> np.ndarray:
     """``(k,)`` bool: which facets of a remesh of ``surface`` (a mesh with its holes
     kept) lie on what closes a hole, by their surface centres ``(k, 3)``: on a cap
     face, or (winding-number patches) off the input's faces."""
-    if len(centres) == 0:
-        return np.zeros(0, bool)
-    dist, _, face, _ = surface._core.query(np.ascontiguousarray(centres, np.float64))
-    return (face >= surface.input_face_count) | (dist > OFF_INPUT * surface.radius)
+    centres = np.ascontiguousarray(centres, np.float64).reshape(-1, 3)
+    # Exact crossings: the face they were found on; the rest are queried.
+    face = surface.crossing_faces(centres)
+    off = np.zeros(len(centres), bool)
+    rest = np.flatnonzero(face < 0)
+    if len(rest):
+        dist, _, face[rest], _ = surface._core.query(centres[rest])
+        off[rest] = dist > OFF_INPUT * surface.radius
+    return (face >= surface.input_face_count) | off
