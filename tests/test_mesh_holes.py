@@ -52,6 +52,7 @@ def test_holes_kept_give_the_inputs_topology(cuts, loops):
     assert mesh.report["holes"]["rims"] == loops
     assert mesh.report["holes"]["closed_by"] == "caps"
     assert mesh.report["holes"]["mixed_regions"] == 0
+    assert f"holes: {loops} kept" in mesh.summary()
     # Nothing of the caps is left: every output vertex lies on the input's
     # faces, and every facet's centroid is nearest to one of them, within the
     # size bound (the triangle lies in a surface Delaunay ball on the input).
@@ -166,3 +167,18 @@ def test_rims_that_cannot_be_protected_leave_the_caps_and_say_so(monkeypatch):
     assert mesh.report["holes"]["cut"] is False and mesh.report["holes"]["faces_cut"] == 0
     assert "could not be kept" in mesh.report["statement"]
     assert mesh.is_closed_manifold()  # closed by the caps, and said so
+
+
+def test_cli_remesh_keeps_or_fills_the_holes(tmp_path, capsys):
+    from rdmesh import cli
+
+    v, f = _open_sphere((0.6,))
+    trimesh.Trimesh(v, f).export(tmp_path / "open.ply")
+    for holes, closed in (("keep", False), ("fill", True)):
+        out = tmp_path / f"{holes}.ply"
+        args = ["remesh", str(tmp_path / "open.ply"), "-o", str(out), "--radius", "0.2"]
+        assert cli.main([*args, "--holes", holes, "--quiet"]) == 0
+        m = trimesh.load(out)
+        assert m.is_watertight == closed
+    assert cli.main(["remesh", str(tmp_path / "open.ply"), "-o", str(out), "--holes", "x"]) == 2
+    assert "--holes" in capsys.readouterr().err

@@ -268,6 +268,15 @@ def _summary(mesh: SurfaceMesh) -> str:
     creases = mesh.report.get("creases") if mesh.report else None
     if creases is not None:
         lines.append(_creases_line(creases))
+    holes = mesh.report.get("holes") if mesh.report else None
+    if holes is not None:
+        lines.append(
+            f"holes: {holes['rims']} kept, their rims the boundary (closed while meshing by "
+            f"the {holes['closed_by']}, cut off)"
+            if holes["cut"]
+            else f"holes: {holes['rims']} NOT kept (rims not protected): closed by the "
+            f"{holes['closed_by']}"
+        )
     if not mesh.complete:
         lines.append("INCOMPLETE: " + str(mesh.stats.get("stop_reason", "budget")))
     if len(mesh.unresolved):
