@@ -6,7 +6,9 @@
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -18,14 +20,25 @@ namespace {
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 
-std::vector<std::int64_t> fill_hole(const std::vector<double>& xyz) {
-  const std::size_t n = xyz.size() / 3;
-  std::vector<K::Point_3> rim;
-  rim.reserve(n);
-  for (std::size_t i = 0; i < n; ++i)
-    rim.emplace_back(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+std::vector<K::Point_3> points_of(const std::vector<double>& xyz) {
+  std::vector<K::Point_3> out;
+  out.reserve(xyz.size() / 3);
+  for (std::size_t i = 0; i + 2 < xyz.size(); i += 3) out.emplace_back(xyz[i], xyz[i + 1], xyz[i + 2]);
+  return out;
+}
+
+// With `third` (the third vertex of the face on each rim edge), Liepa's weight
+// (the largest dihedral angle with those faces first, then the area) keeps the
+// cap from folding back onto the faces; without it, the least area.
+std::vector<std::int64_t> fill_hole(const std::vector<double>& xyz,
+                                    const std::vector<double>& third) {
+  const std::vector<K::Point_3> rim = points_of(xyz);
   std::vector<CGAL::Triple<int, int, int>> tri;
-  CGAL::Polygon_mesh_processing::triangulate_hole_polyline(rim, std::back_inserter(tri));
+  if (third.empty())
+    CGAL::Polygon_mesh_processing::triangulate_hole_polyline(rim, std::back_inserter(tri));
+  else
+    CGAL::Polygon_mesh_processing::triangulate_hole_polyline(rim, points_of(third),
+                                                             std::back_inserter(tri));
   std::vector<std::int64_t> out;
   out.reserve(3 * tri.size());
   for (const auto& t : tri) {
@@ -41,20 +54,29 @@ std::vector<std::int64_t> fill_hole(const std::vector<double>& xyz) {
 void register_hole_fill(py::module_& m) {
   m.def(
       "fill_hole",
-      [](const InArray& points) {
+      [](const InArray& points, const std::optional<InArray>& third) {
         const std::vector<double> p = rows3(points, "points");
         if (p.size() < 9) throw std::invalid_argument("a hole's rim needs at least 3 points");
+        std::vector<double> q;
+        if (third) {
+          q = rows3(*third, "third");
+          if (q.size() != p.size())
+            throw std::invalid_argument("third must have one point per rim point");
+        }
         std::vector<std::int64_t> t;
         {
           py::gil_scoped_release release;
-          t = fill_hole(p);
+          t = fill_hole(p, q);
         }
         return to_numpy(t, {static_cast<py::ssize_t>(t.size() / 3), 3});
       },
-      py::arg("points"),
+      py::arg("points"), py::arg("third") = py::none(),
       "(t, 3) int64: triangles over the closed rim of (k, 3) points in order (the "
       "first not repeated), indices into the points (CGAL's "
-      "triangulate_hole_polyline); empty when no triangulation was found.");
+      "triangulate_hole_polyline); empty when no triangulation was found. "
+      "``third`` (k, 3): for each rim edge (point i to i + 1), the third vertex of "
+      "the face on it, so that the cap meets those faces at the flattest angles "
+      "(Liepa's weight); without it, the least area.");
 }
 
 }  // namespace rdmesh::bind

@@ -62,8 +62,9 @@ class Holes:
 
 
 def rim_half_edges(faces: np.ndarray) -> np.ndarray:
-    """``(k, 2)``: the half-edges ``(a, b)`` of faces whose edge no other face has."""
-    h = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    """``(k, 3)``: the half-edges ``(a, b)`` of faces whose edge no other face
+    has, with the face's third vertex ``c``."""
+    h = np.concatenate([faces[:, [0, 1, 2]], faces[:, [1, 2, 0]], faces[:, [2, 0, 1]]])
     n = int(faces.max()) + 1
     key = np.minimum(h[:, 0], h[:, 1]) * n + np.maximum(h[:, 0], h[:, 1])
     order = np.argsort(key, kind="stable")
@@ -95,10 +96,13 @@ def rim_loops(half: np.ndarray) -> list[np.ndarray]:
     return loops
 
 
-def cap(vertices: np.ndarray, loop: np.ndarray) -> np.ndarray:
+def cap(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray) -> np.ndarray:
     """Triangles over one rim (vertex ids), oriented against the rim's half-edges
-    (so that the cap's edges pair with the faces'); empty when CGAL finds none."""
-    tri = core.fill_hole(vertices[loop])
+    (so that the cap's edges pair with the faces'), meeting the faces on the rim
+    (``third``: their third vertices, one per rim edge) at the flattest angles
+    (Liepa's weight; a least-area cap can fold back through faces next to the
+    rim); empty when CGAL finds none."""
+    tri = core.fill_hole(vertices[loop], vertices[third])
     if len(tri) == 0:
         return np.zeros((0, 3), np.int64)
     t = loop[tri]
@@ -115,15 +119,16 @@ def find_holes(vertices: np.ndarray, faces: np.ndarray) -> Holes | None:
     half = rim_half_edges(faces)
     if len(half) == 0:
         return None
-    chains, closed = chain_edges(vertices, np.sort(half, axis=1), RIM_TURN)
+    chains, closed = chain_edges(vertices, np.sort(half[:, :2], axis=1), RIM_TURN)
     curves = [
         vertices[np.r_[c, c[:1]]] if cl else vertices[c]
         for c, cl in zip(chains, closed, strict=True)
     ]
-    loops = rim_loops(half)
+    loops = rim_loops(half[:, :2])
     if loops is None:
         return Holes([], curves, np.zeros((0, 3), np.int64), np.zeros(0, np.int64))
-    caps = [cap(vertices, loop) for loop in loops]
+    third = dict(zip(half[:, 0].tolist(), half[:, 2].tolist(), strict=True))  # by a
+    caps = [cap(vertices, loop, np.array([third[a] for a in loop.tolist()])) for loop in loops]
     rim = np.concatenate([np.full(len(c), k) for k, c in enumerate(caps)]).astype(np.int64)
     return Holes(loops, curves, np.concatenate(caps), rim)
 
