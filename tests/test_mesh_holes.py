@@ -81,6 +81,7 @@ def test_holes_fill_closes_them():
 def test_holes_kept_with_the_winding_numbers_patches(monkeypatch):
     """Where no cap can be made, the winding number closes the holes, and the
     cut tells its patches apart from the faces."""
+
     def no_cap(points, third=None):
         return np.zeros((0, 3), np.int64)
 
