@@ -186,3 +186,12 @@ def test_cli_remesh_keeps_or_fills_the_holes(tmp_path, capsys):
         assert m.is_watertight == closed
     assert cli.main(["remesh", str(tmp_path / "open.ply"), "-o", str(out), "--holes", "x"]) == 2
     assert "--holes" in capsys.readouterr().err
+
+
+def test_caps_whose_edges_the_mesh_already_has_are_found():
+    """A cap edge that is already an edge of the mesh would be in three faces:
+    such caps are dropped (their holes take the winding number's patch)."""
+    f = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 4]])
+    assert len(_mesh_holes._overfull(f, 2)) == 0
+    f = np.array([[0, 1, 2], [0, 2, 3], [0, 2, 4], [0, 1, 3]])  # (0, 2) in three faces
+    assert _mesh_holes._overfull(f, 2).tolist() == [0]

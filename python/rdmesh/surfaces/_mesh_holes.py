@@ -159,9 +159,9 @@ FLAT = 1e-6
 
 def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
     """Append the caps over ``surface.holes`` to ``surface.faces`` and build its
-    queries (``_start_queries``), without the caps that cross the mesh (those
-    holes are closed by the winding number's patches); returns the faces'
-    doubled areas.
+    queries (``_start_queries``), without the caps that cross the mesh or
+    share an edge with it (those holes are closed by the winding number's
+    patches); returns the faces' doubled areas.
 
     Raises
     ------
@@ -169,8 +169,12 @@ def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
         The capped mesh encloses no volume (a flat patch).
     """
     v, inputs = surface.vertices, (surface.faces, norms, surface._normals)
-    surface.faces, norms, surface._normals = with_caps(*inputs, v, surface.holes)
     n = len(inputs[0])
+    if surface.holes is not None and len(surface.holes.caps):
+        # A cap edge that is already an edge of the mesh (a neck between two
+        # rim vertices) would be in three faces: that hole keeps no cap.
+        surface.holes.drop_caps(_overfull(np.concatenate([inputs[0], surface.holes.caps]), n))
+    surface.faces, norms, surface._normals = with_caps(*inputs, v, surface.holes)
     if len(surface.faces) > n:
         f = surface.faces
         volume = abs(float(np.einsum("ij,ij->", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]])))) / 6
@@ -185,6 +189,19 @@ def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
         surface.faces, norms, surface._normals = with_caps(*inputs, v, surface.holes)
         surface._start_queries(radius)
     return norms
+
+
+def _overfull(f: np.ndarray, n: int) -> np.ndarray:
+    """Indices (from ``n``) of the faces ``f[n:]`` with an edge in more than two faces."""
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    key = e[:, 0] * (int(f.max()) + 1) + e[:, 1]
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    start = np.r_[True, k[1:] != k[:-1]]
+    count = np.diff(np.r_[np.flatnonzero(start), len(k)])
+    over = np.repeat(count > 2, count)[np.argsort(order, kind="stable")]
+    face = np.tile(np.arange(len(f)), 3)
+    return np.unique(face[over & (face >= n)]) - n
 
 
 #: A facet's surface centre farther than this (times R) from the input's faces
