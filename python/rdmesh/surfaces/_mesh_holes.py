@@ -127,8 +127,9 @@ def find_holes(vertices: np.ndarray, faces: np.ndarray) -> Holes | None:
     loops = rim_loops(half[:, :2])
     if loops is None:
         return Holes([], curves, np.zeros((0, 3), np.int64), np.zeros(0, np.int64))
-    third = dict(zip(half[:, 0].tolist(), half[:, 2].tolist(), strict=True))  # by a
-    caps = [cap(vertices, loop, np.array([third[a] for a in loop.tolist()])) for loop in loops]
+    third = np.full(len(vertices), -1, np.int64)
+    third[half[:, 0]] = half[:, 2]  # of the rim edge (a, b), by a
+    caps = [cap(vertices, loop, third[loop]) for loop in loops]
     rim = np.concatenate([np.full(len(c), k) for k, c in enumerate(caps)]).astype(np.int64)
     return Holes(loops, curves, np.concatenate(caps), rim)
 
