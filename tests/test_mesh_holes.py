@@ -195,3 +195,43 @@ def test_caps_whose_edges_the_mesh_already_has_are_found():
     assert len(_mesh_holes._overfull(f, 2)) == 0
     f = np.array([[0, 1, 2], [0, 2, 3], [0, 2, 4], [0, 1, 3]])  # (0, 2) in three faces
     assert _mesh_holes._overfull(f, 2).tolist() == [0]
+
+
+def _strip(n=12, width=1.0):
+    """A flat strip of 2 n triangles along x: vertices 0..n on y = 0, n+1..2n+1 on y = width."""
+    x = np.arange(n + 1, dtype=float)
+    zero = np.zeros(n + 1)
+    v = np.r_[np.c_[x, zero, zero], np.c_[x, zero + width, zero]]
+    f = []
+    for i in range(n):
+        a, b, c, d = i, i + 1, n + 1 + i, n + 2 + i
+        f += [[a, b, d], [a, d, c]]
+    return v, np.array(f)
+
+
+def test_rim_slivers_are_trimmed():
+    """A spike (a face whose two rim edges meet at a sliver's angle) is dropped;
+    a notch (two rim edges at a sliver's angle with no face) is filled."""
+    v, f = _strip()
+    spike = np.array(
+        [[6.0, -20.0, 0.0]]
+    )  # below the strip: a face (5, 6, tip) at ~3 degrees at tip
+    v2 = np.r_[v, spike]
+    f2 = np.r_[f, [[6, 5, len(v)]]]
+    out_v, out_f, dropped, added = _mesh_holes.trim_rims(v2, f2)
+    assert dropped == 1 and added == 0
+    assert len(out_v) == len(v) and len(out_f) == len(f)  # the tip is gone with its face
+    # A notch: a fan about v = 0 leaving a 5.7 degree wedge between p and q open.
+    fan_v = np.array(
+        [[0, 0, 0], [10, 0.5, 0], [0, 10, 0], [-10, 0, 0], [0, -10, 0], [10, -0.5, 0.0]]
+    )
+    fan_f = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 5]])
+    out_v, out_f, dropped, added = _mesh_holes.trim_rims(fan_v, fan_f)
+    assert dropped == 0 and added == 1
+    assert sorted(out_f[-1].tolist()) == [0, 1, 5]
+    rim = _mesh_holes.rim_half_edges(out_f)
+    assert 0 not in rim[:, :2]  # v is inside now
+    loops = _mesh_holes.rim_loops(rim[:, :2])
+    assert len(loops) == 1 and len(loops[0]) == 5
+    # Nothing to trim on a plain strip.
+    assert _mesh_holes.trim_rims(v, f)[2:] == (0, 0)

@@ -136,14 +136,15 @@ def check_features(
 
 def repair_sites(
     mesh, angle: float, soft: tuple[np.ndarray, np.ndarray] | None = None,
-    rim_corners: np.ndarray | None = None,
+    rim_balls: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Where to shrink the balls of a mesh: the failed places of its feature
     check, and the ball centres of triangles below ``angle`` degrees.
     Returns ``(points (k, 3), radii (k,))``: each place and the radius about
-    it within which balls shrink. Triangles whose smallest angle is at one of
-    the ``rim_corners`` (mesh vertex ids: corners of an open mesh's rims, whose
-    angles the input's jagged rim bounds) are left out. Places whose nearest ball is one of the
+    it within which balls shrink. The ``rim_balls`` (mesh vertex ids of the
+    balls on an open mesh's rims only) start no angle repair: the input's rim
+    bounds the angles there (a cut rim turns sharply, and its corners can be a
+    tiny edge apart). Places whose nearest ball is one of the
     ``soft`` balls (``(centres, is_soft)``: a volume's kink curves) are left
     out: beside a thin wedge, smaller balls make the wedge thinner at their
     edge, so refinement stops at the spacing floor in more places and the
@@ -156,8 +157,8 @@ def repair_sites(
     if len(mesh.faces):
         low = mesh.angles < angle
         heavy = w[mesh.faces] > 0
-        if rim_corners is not None and len(rim_corners):
-            low &= ~np.isin(_smallest_angle_at(mesh.vertices, mesh.faces), rim_corners)
+        if rim_balls is not None and len(rim_balls):
+            heavy &= ~np.isin(mesh.faces, rim_balls)
         hit = low[:, None] & heavy
         ids = np.unique(mesh.faces[hit])
         pts.append(mesh.vertices[ids])
@@ -167,11 +168,3 @@ def repair_sites(
         _, j = cKDTree(soft[0]).query(pts)
         pts, rad = pts[~soft[1][j]], rad[~soft[1][j]]
     return pts, rad
-
-
-def _smallest_angle_at(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """``(k,)``: the vertex of each face at its smallest angle (the one
-    opposite its shortest edge)."""
-    p = vertices[faces]
-    opposite = np.linalg.norm(p[:, [1, 2, 0]] - p[:, [2, 0, 1]], axis=2)
-    return faces[np.arange(len(faces)), np.argmin(opposite, axis=1)]

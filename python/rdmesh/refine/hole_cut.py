@@ -32,6 +32,7 @@ class CapCut:
     mixed: int
     closed_by: str
     cut: bool = True
+    trimmed: tuple[int, int] = (0, 0)
 
     def as_report(self) -> dict:
         return {
@@ -41,6 +42,7 @@ class CapCut:
             "mixed_regions": self.mixed,
             "closed_by": self.closed_by,
             "cut": self.cut,
+            "slivers_trimmed": {"faces_dropped": self.trimmed[0], "faces_added": self.trimmed[1]},
         }
 
     def statement(self) -> str:
@@ -48,13 +50,19 @@ class CapCut:
         if not self.cut:
             return (
                 f"The input's {self.rims} holes could not be kept (their rims were not "
-                f"protected): the mesh is closed over them by the {self.closed_by}."
+                f"protected): the mesh is closed over them by the {self.closed_by}; "
+                "MeshSurface(..., holes='fill') closes them smoothly instead."
             )
         s = (
             f"The input's {self.rims} holes are kept: what closed them while meshing (the "
             f"{self.closed_by}) was cut off along their protected rims ({self.faces_cut} "
             "faces)."
         )
+        if any(self.trimmed):
+            s += (
+                f" Slivers at the rims were trimmed first ({self.trimmed[0]} input faces "
+                f"dropped, {self.trimmed[1]} added)."
+            )
         if self.mixed:
             s += (
                 f" {self.mixed} regions lie partly on a hole's closure (a rim's edges missing "
@@ -82,7 +90,8 @@ def cut_caps(surface, graph, balls, ball_ids, tri: np.ndarray, centres: np.ndarr
         else f"caps ({capped}) and the winding number ({len(holes.rims) - capped})"
     )  # fmt: skip
     if balls is None or graph is None:  # the rims' protection failed
-        return CapCut(np.ones(len(tri), bool), len(holes.rims), 0, 0, 0, closed_by, cut=False)
+        return CapCut(np.ones(len(tri), bool), len(holes.rims), 0, 0, 0, closed_by, False,
+                      holes.trimmed)  # fmt: skip
     rim_curve = np.array([c.source == RIM_SOURCE for c in graph.curves], bool)
     pairs = balls.pairs[rim_curve[balls.pair_curve]] if len(balls.pairs) else balls.pairs
     rim = ball_ids[pairs]
@@ -107,21 +116,22 @@ def cut_caps(surface, graph, balls, ball_ids, tri: np.ndarray, centres: np.ndarr
     keep = ~cut[region]
     mixed = int(np.count_nonzero((share > MIXED[0]) & (share < MIXED[1])))
     return CapCut(keep, len(holes.rims), int(np.count_nonzero(~keep)), int(cut.sum()), mixed,
-                  closed_by)  # fmt: skip
+                  closed_by, True, holes.trimmed)  # fmt: skip
 
 
-def rim_corners(mesh, plan) -> np.ndarray | None:
-    """Mesh vertex ids of the corners where only rims of kept holes end (their
-    angles are the input's jagged rim's: no repair raises them), or None."""
+def rim_balls(mesh, plan) -> np.ndarray | None:
+    """Mesh vertex ids of the balls on the rims of kept holes only (not at a
+    corner another curve ends at), or None: their angles are the input's rim's."""
     graph = plan.features
-    if mesh.features is None or graph is None or not len(graph.corners):
+    if mesh.features is None or graph is None:
         return None
     rim = np.array([c.source == RIM_SOURCE for c in graph.curves], bool)
     if not rim.any():
         return None
+    ids = np.concatenate([c for c, r in zip(mesh.features.curves, rim, strict=True) if r])
     other = np.zeros(len(graph.corners), bool)
     for side in (0, 1):
         e = graph.ends[:, side]
         other[e[(e >= 0) & ~rim]] = True
-    ids = mesh.features.corners
-    return ids[(ids >= 0) & ~other[: len(ids)]]
+    shared = mesh.features.corners[other[: len(mesh.features.corners)]]
+    return np.setdiff1d(ids[ids >= 0], shared)

@@ -44,7 +44,7 @@ from .criteria import FacetCriteria
 from .deviation import DeviationStage
 from .feature_curves import kink_balls
 from .floor import SpacingFloor
-from .hole_cut import cut_caps, rim_corners
+from .hole_cut import cut_caps, rim_balls
 from .methods import METHODS, Plan, boundary_sizing
 from .phases import Phases
 from .pipeline import FacetPipeline
@@ -253,7 +253,7 @@ def _insert_stages(m: Mesher, points: np.ndarray, stages: np.ndarray) -> int:
 
 def _repair_sites(mesh: SurfaceMesh, plan: Plan):
     """Where the next attempt shrinks the balls (:func:`repair_sites`)."""
-    return repair_sites(mesh, REPAIR_ANGLE, kink_balls(plan), rim_corners(mesh, plan))
+    return repair_sites(mesh, REPAIR_ANGLE, kink_balls(plan), rim_balls(mesh, plan))
 
 
 def forget_crossings(surface) -> None:

@@ -45,12 +45,15 @@ class Holes:
         Triangles over the rims (no new vertices), oriented as the faces.
     cap_rim : (c,) int64
         The rim each cap triangle closes.
+    trimmed : (int, int)
+        The input's faces dropped and added at its rims' slivers (:func:`trim_rims`).
     """
 
     rims: list[np.ndarray]
     curves: list[np.ndarray]
     caps: np.ndarray
     cap_rim: np.ndarray
+    trimmed: tuple[int, int] = (0, 0)
 
     def drop_caps(self, faces: np.ndarray) -> int:
         """Forget the caps of the rims that the cap triangles ``faces`` (indices
@@ -62,15 +65,81 @@ class Holes:
 
 
 def rim_half_edges(faces: np.ndarray) -> np.ndarray:
-    """``(k, 3)``: the half-edges ``(a, b)`` of faces whose edge no other face
-    has, with the face's third vertex ``c``."""
+    """``(k, 4)``: the half-edges ``(a, b)`` of faces whose edge no other face
+    has, with the face's third vertex ``c`` and the face's index."""
+    m = len(faces)
     h = np.concatenate([faces[:, [0, 1, 2]], faces[:, [1, 2, 0]], faces[:, [2, 0, 1]]])
+    h = np.c_[h, np.tile(np.arange(m), 3)]
     n = int(faces.max()) + 1
     key = np.minimum(h[:, 0], h[:, 1]) * n + np.maximum(h[:, 0], h[:, 1])
     order = np.argsort(key, kind="stable")
     k = key[order]
     once = np.r_[True, k[1:] != k[:-1]] & np.r_[k[1:] != k[:-1], True]
     return h[order[once]]
+
+
+#: A rim that turns back on itself at a vertex, its two edges less than this
+#: many degrees apart (a marching-cubes sliver at a cut), cannot be protected:
+#: the balls of the curves on either side would have to shrink to nothing.
+RIM_SLIVER = 10.0
+#: Rounds of trimming at most (each trims slivers whose neighbours are not).
+TRIM_ROUNDS = 8
+
+
+def trim_rims(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """The mesh with its rims' slivers trimmed: where two rim edges meet at less
+    than :data:`RIM_SLIVER` degrees, the face holding both (a spike) is dropped,
+    or, where no face does (a notch), the face across them is added, or where
+    that face's third edge is in two faces already (a flap), the two faces on
+    the rim edges are dropped. Returns ``(v, f, dropped, added)``, without the
+    vertices no face uses any more."""
+    dropped = added = 0
+    for _ in range(TRIM_ROUNDS):
+        h = rim_half_edges(f)
+        if len(h) == 0 or len(np.unique(h[:, 0])) < len(h):
+            break  # closed, or a rim that touches itself
+        n = len(v)
+        nxt, third, face, prv, face_in = (np.full(n, -1, np.int64) for _ in range(5))
+        nxt[h[:, 0]], third[h[:, 0]], face[h[:, 0]] = h[:, 1], h[:, 2], h[:, 3]
+        prv[h[:, 1]], face_in[h[:, 1]] = h[:, 0], h[:, 3]
+        x = h[:, 0]
+        p, q = prv[x], nxt[x]
+        ok = (p >= 0) & (p != q)
+        a, b = v[p] - v[x], v[q] - v[x]
+        cos = np.einsum("ij,ij->i", a, b) / np.maximum(
+            np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300
+        )
+        sliver = np.zeros(n, bool)
+        sliver[x] = ok & (cos > np.cos(np.radians(RIM_SLIVER)))
+        # Not two neighbours in one round: a sliver goes first unless a
+        # neighbour with a smaller index is one too.
+        pp, qq = np.maximum(p, 0), np.maximum(q, 0)
+        act = x[sliver[x] & ~(sliver[pp] & (pp < x)) & ~(sliver[qq] & (qq < x))]
+        if len(act) == 0:
+            break
+        ear = third[act] == prv[act]
+        notch = act[~ear]
+        count = _edge_count(f, prv[notch], nxt[notch])
+        flap, notch = notch[count >= 2], notch[count < 2]
+        keep = np.ones(len(f), bool)
+        keep[face[act[ear]]] = False
+        keep[face[flap]] = keep[face_in[flap]] = False
+        dropped += int(np.count_nonzero(~keep))
+        f = np.concatenate([f[keep], np.c_[notch, prv[notch], nxt[notch]]])
+        added += len(notch)
+        if not len(f):
+            break
+    used, f = np.unique(f, return_inverse=True)
+    return v[used], f.reshape(-1, 3).astype(np.int64), dropped, added
+
+
+def _edge_count(f: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """How many faces of ``f`` have the edge ``(a_i, b_i)``, either way."""
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    n = int(max(f.max(initial=0), a.max(initial=0), b.max(initial=0))) + 1
+    key = np.sort(e[:, 0] * n + e[:, 1])
+    q = np.minimum(a, b) * n + np.maximum(a, b)
+    return np.searchsorted(key, q, "right") - np.searchsorted(key, q, "left")
 
 
 def rim_loops(half: np.ndarray) -> list[np.ndarray]:

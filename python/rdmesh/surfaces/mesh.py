@@ -9,10 +9,12 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from .._validate import choice
 from ..features.sharp_edges import sharp_curves
-from ._mesh_holes import HOLES, close_holes, find_holes
-from ._mesh_input import bounding_sphere, fold_edges, oriented_mesh
+from ._mesh_holes import HOLES, close_holes, find_holes, rim_half_edges, trim_rims
+from ._mesh_input import area_vectors, bounding_sphere, fold_edges, oriented_mesh
 from ._mesh_queries import MeshQueries
 from ._mesh_report import MeshReport
 from .oracle import ImplicitSurface
@@ -25,15 +27,27 @@ def _sharp_angle(feature_angle: Any, features: Any) -> Any:
     return None if off else feature_angle
 
 
-def _holes(v, f, holes: str, features: Any):
-    """The holes :class:`MeshSurface` keeps (None with ``holes="fill"`` or none)."""
-    found = find_holes(v, f) if holes == "keep" else None
-    if found is not None and _sharp_angle(0, features) is None:
+def _holes(surface, norms, holes: str, features: Any):
+    """The holes :class:`MeshSurface` keeps (None with ``holes="fill"`` or none),
+    after their rims' slivers are trimmed (``surface.vertices``, ``faces`` and
+    ``_normals`` updated); returns them and the faces' area norms."""
+    if holes != "keep" or len(rim_half_edges(surface.faces)) == 0:
+        return None, norms
+    if _sharp_angle(0, features) is None:
         raise ValueError(
             "holes='keep' protects the rims of an open mesh's holes, which features='none' "
             "forbids: use holes='fill' with it"
         )
-    return found
+    v, f, dropped, added = trim_rims(surface.vertices, surface.faces)
+    if dropped or added:
+        area = area_vectors(v, f)
+        norms = np.linalg.norm(area, axis=1)
+        surface.vertices, surface.faces = v, f
+        surface._normals = area / np.where(norms > 0, norms, 1.0)[:, None]
+    found = find_holes(surface.vertices, surface.faces)
+    if found is not None:
+        found.trimmed = (dropped, added)
+    return found, norms
 
 
 class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
@@ -168,8 +182,8 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     ) -> None:  # fmt: skip
         choice("holes", holes, HOLES)
         self.vertices, self.faces, norms, self._normals = oriented_mesh(mesh)
+        self.holes, norms = _holes(self, norms, holes, features)
         n = self.input_face_count = len(self.faces)
-        self.holes = _holes(self.vertices, self.faces, holes, features)
         centre, radius = bounding_sphere(self.vertices)
         norms = close_holes(self, norms, radius)  # and _start_queries
         self.fold_edges = fold_edges(self.faces[:n], self._normals[:n])
