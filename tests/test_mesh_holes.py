@@ -157,7 +157,7 @@ def test_chords_between_balls_stay_near_a_zigzag_polyline():
     assert len(balls.centres) > 2.0 / 0.3 + 1
 
 
-def test_rims_that_cannot_be_protected_leave_the_caps_and_say_so(monkeypatch):
+def test_rims_that_cannot_be_protected_are_filled_instead(monkeypatch):
     from rdmesh.features import FeatureError
     from rdmesh.refine import methods
 
@@ -167,10 +167,13 @@ def test_rims_that_cannot_be_protected_leave_the_caps_and_say_so(monkeypatch):
     monkeypatch.setattr(methods, "protect", refuse)
     v, f = _open_sphere((0.6,))
     mesh = rdmesh.mesh_surface(rdmesh.MeshSurface((v, f)), radius_bound=0.2)
-    assert not mesh.complete and "not protected" in mesh.stats["stop_reason"]
-    assert mesh.report["holes"]["cut"] is False and mesh.report["holes"]["faces_cut"] == 0
+    holes = mesh.report["holes"]
+    assert holes["cut"] is False and holes["filled_again"] and holes["faces_cut"] == 0
+    assert holes["closed_by"] == "winding number"
     assert "could not be kept" in mesh.report["statement"]
-    assert mesh.is_closed_manifold()  # closed by the caps, and said so
+    assert mesh.is_closed_manifold() and mesh.complete  # as holes="fill" gives it
+    inp = rdmesh.MeshSurface((v, f), holes="fill")
+    assert np.abs(inp.signed_distance(mesh.vertices)).max() < 1e-6  # the patch, not caps
 
 
 def test_cli_remesh_keeps_or_fills_the_holes(tmp_path, capsys):

@@ -10,9 +10,10 @@ from .features.given import ProtectingBalls
 from .io.result import SurfaceMesh
 from .refine.criteria import FacetCriteria, Sizing
 from .refine.feature_curves import has_given_curves, search_creases
-from .refine.mesher import Budget, Mesher, forget_crossings
+from .refine.mesher import Budget, Mesher, forget_crossings, restart
 from .refine.methods import METHODS, TOPOLOGIES
 from .surfaces.expressions import Expression
+from .surfaces.mesh import filled
 from .surfaces.oracle import ImplicitSurface
 from .surfaces.volume import VolumeSurface
 
@@ -280,10 +281,36 @@ def mesh_surface(
 
             with ProgressBar() as bar:
                 mesher.progress = bar.update
-                return mesher.run()
-        return mesher.run()
+                return _kept_or_filled(mesher)
+        return _kept_or_filled(mesher)
     finally:
         forget_crossings(surface)  # their memory goes with the run
+
+
+def _kept_or_filled(mesher: Mesher):
+    """The mesher's run; for an open mesh whose rims could not be protected (the
+    holes could not be kept), the run again with them filled (``holes="fill"``)
+    in the time left, if any (else the first run's mesh, closed by its caps)."""
+    mesh = mesher.run()
+    holes = (mesh.report or {}).get("holes")
+    limit = mesher.budget.time_limit
+    if holes is None or holes["cut"] or (limit is not None and mesh.stats["seconds"] >= limit):
+        return mesh
+    if limit is not None:  # the two runs share the time limit
+        mesher.budget = Budget(mesher.budget.max_vertices, limit - mesh.stats["seconds"])
+    log.warning(
+        "%s: the rims of its %d holes could not be protected (%s); meshing it again with "
+        "the holes filled (holes='fill')", mesher.surface.name, holes["rims"],
+        mesh.stats.get("stop_reason", ""),
+    )  # fmt: skip
+    restart(mesher, filled(mesher.surface))
+    again = mesher.run()
+    again.report["holes"] = {**holes, "closed_by": "winding number", "filled_again": True}
+    again.report["statement"] += (
+        f" The input's {holes['rims']} holes could not be kept (their rims could not be "
+        "protected): they are filled by the winding number's patches (holes='fill')."
+    )
+    return again
 
 
 def _topology(surface: ImplicitSurface, topology: str | None, method: str) -> str:

@@ -256,6 +256,13 @@ def _repair_sites(mesh: SurfaceMesh, plan: Plan):
     return repair_sites(mesh, REPAIR_ANGLE, kink_balls(plan), rim_balls(mesh, plan))
 
 
+def restart(m: Mesher, surface: ImplicitSurface) -> None:
+    """Make ``m`` mesh ``surface`` from scratch on its next :meth:`Mesher.run`."""
+    forget_crossings(m.surface)
+    m.surface, m.rounds, m.repairs = surface, 0, 0
+    _fresh(m)
+
+
 def forget_crossings(surface) -> None:
     """Drop what ``surface`` remembers of a run's crossings (a mesh input's
     faces of its exact crossings), if anything."""

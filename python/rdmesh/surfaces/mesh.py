@@ -83,9 +83,12 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
         degrees or more), the hole is closed while meshing by a cap (CGAL's
         ``triangulate_hole_polyline`` over the rim; where a cap would cross
         the mesh, by the winding number's patch), and the part of the remesh
-        on the caps is cut off along the rims (``report["holes"]``). Needs
-        ``method="boissonnat-oudot"``. "fill": the remesh is closed, the
-        holes patched by the surface where the winding number is 0.5.
+        on the caps is cut off along the rims (``report["holes"]``). Rim
+        slivers (edges under 10 degrees apart) are trimmed first; if the rims
+        cannot be protected, :func:`rdmesh.mesh_surface` meshes the input again
+        with the holes filled. Needs ``method="boissonnat-oudot"``. "fill":
+        the remesh is closed, the holes patched by the surface where the
+        winding number is 0.5.
 
     Attributes
     ----------
@@ -197,3 +200,13 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
             self._signed_distance, (centre, radius), gradient=self._gradient, name=name,
             features=features,
         )  # fmt: skip
+
+
+def filled(surface: MeshSurface) -> MeshSurface:
+    """``surface``'s input (its slivers trimmed) with the holes filled
+    (``holes="fill"``), the same name, feature angle and features."""
+    faces = surface.faces[: surface.input_face_count]
+    return MeshSurface(
+        (surface.vertices, faces), name=surface.name, feature_angle=surface.feature_angle,
+        features=surface.features or None, holes="fill",
+    )  # fmt: skip
