@@ -170,6 +170,7 @@ def test_rims_that_cannot_be_protected_are_filled_instead(monkeypatch):
     holes = mesh.report["holes"]
     assert holes["cut"] is False and holes["filled_again"] and holes["faces_cut"] == 0
     assert holes["closed_by"] == "winding number"
+    assert 0 < holes["first_run_seconds"] < mesh.stats["seconds"]  # both runs counted
     assert "could not be kept" in mesh.report["statement"]
     assert mesh.is_closed_manifold() and mesh.complete  # as holes="fill" gives it
     inp = rdmesh.MeshSurface((v, f), holes="fill")
@@ -238,3 +239,20 @@ def test_rim_slivers_are_trimmed():
     assert len(loops) == 1 and len(loops[0]) == 5
     # Nothing to trim on a plain strip.
     assert _mesh_holes.trim_rims(v, f)[2:] == (0, 0)
+
+
+def test_a_mesh_with_holes_kept_is_sent_to_a_worker_whole():
+    """Pickled for a batch worker (its faces with the caps), the surface gives
+    the same mesh and report there."""
+    import pickle
+
+    from rdmesh.batch.transport import dumps
+
+    v, f = _open_sphere((0.6,))
+    here = rdmesh.MeshSurface((v, f))
+    there = pickle.loads(dumps(here))
+    assert there.input_face_count == here.input_face_count < len(there.faces)
+    a = rdmesh.mesh_surface(here, radius_bound=0.2)
+    b = rdmesh.mesh_surface(there, radius_bound=0.2)
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
+    assert a.report["holes"] == b.report["holes"]
