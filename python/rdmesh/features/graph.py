@@ -122,8 +122,13 @@ class FeatureGraph:
     @property
     def ended(self) -> np.ndarray:
         """``(c,)`` bool: the corners that end a curve (the rest are isolated)."""
+        return self.ended_by(np.ones(len(self.curves), bool))
+
+    def ended_by(self, curves: np.ndarray) -> np.ndarray:
+        """``(c,)`` bool: the corners that end one of the ``curves`` (a mask)."""
         out = np.zeros(len(self.corners), bool)
-        out[self.ends[self.ends >= 0]] = True
+        ends = self.ends[np.asarray(curves, bool)] if len(self.curves) else self.ends
+        out[ends[ends >= 0]] = True
         return out
 
     def merged(self, other: FeatureGraph, radius: float) -> FeatureGraph:

@@ -240,12 +240,8 @@ def kink_balls(plan) -> tuple[np.ndarray, np.ndarray] | None:
     kink = np.array([c.source == KINK_SOURCE for c in graph.curves] + [False], bool)
     soft = kink[np.where(balls.curve >= 0, balls.curve, len(graph.curves))]
     # A corner is soft when every curve ending at it is a kink curve.
-    hard_corner = np.zeros(len(graph.corners), bool)
-    for side in (0, 1):
-        e = graph.ends[:, side]
-        hard_corner[e[(e >= 0) & ~kink[:-1]]] = True
     corner = balls.corner >= 0
-    soft[corner] = (graph.ended & ~hard_corner)[balls.corner[corner]]
+    soft[corner] = (graph.ended & ~graph.ended_by(~kink[:-1]))[balls.corner[corner]]
     return balls.centres, soft
 
 

@@ -129,9 +129,5 @@ def rim_balls(mesh, plan) -> np.ndarray | None:
     if not rim.any():
         return None
     ids = np.concatenate([c for c, r in zip(mesh.features.curves, rim, strict=True) if r])
-    other = np.zeros(len(graph.corners), bool)
-    for side in (0, 1):
-        e = graph.ends[:, side]
-        other[e[(e >= 0) & ~rim]] = True
-    shared = mesh.features.corners[other[: len(mesh.features.corners)]]
+    shared = mesh.features.corners[graph.ended_by(~rim)]
     return np.setdiff1d(ids[ids >= 0], shared)

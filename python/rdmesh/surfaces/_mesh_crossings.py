@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._mesh_holes import rim_half_edges
+
 #: Two faces met by a segment closer than this (times the bounding radius)
 #: along it: the segment passes through an edge or a vertex, where one
 #: crossing shows as two hits (or a touch as a crossing).
@@ -136,11 +138,7 @@ def hole_balls(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    n = len(v)
-    key = np.sort(e[:, 0].astype(np.int64) * n + e[:, 1])  # sorting beats np.unique here
-    once = np.r_[True, key[1:] != key[:-1]] & np.r_[key[1:] != key[:-1], True]
-    rim = np.stack([key[once] // n, key[once] % n], axis=1)
+    rim = rim_half_edges(f)[:, :2]
     if len(rim) == 0:
         return np.zeros((0, 3)), np.zeros(0)
     ids, local = np.unique(rim, return_inverse=True)

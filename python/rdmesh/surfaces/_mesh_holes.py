@@ -20,6 +20,7 @@ import numpy as np
 from .._errors import MeshInputError
 from ..core import _rdt as core
 from ..features.sharp_edges import chain_edges
+from ._mesh_input import signed_volume
 
 #: Where the feature curves come from: the rims (boundaries of a mesh with holes kept).
 RIM_SOURCE = "hole rim"
@@ -129,6 +130,8 @@ def trim_rims(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, int
         added += len(notch)
         if not len(f):
             break
+    if not dropped:
+        return v, f, 0, added
     used, f = np.unique(f, return_inverse=True)
     return v[used], f.reshape(-1, 3).astype(np.int64), dropped, added
 
@@ -216,7 +219,7 @@ def with_caps(
     f = np.concatenate([f, c])
     norms = np.concatenate([norms, cn])
     normals = np.concatenate([normals, area / np.where(cn > 0, cn, 1.0)[:, None]])
-    if float(np.einsum("ij,ij->", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]]))) < 0:
+    if signed_volume(v, f) < 0:
         f, normals = f[:, ::-1].copy(), -normals
     return f, norms, normals
 
@@ -246,8 +249,7 @@ def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
         surface.holes.drop_caps(_overfull(np.concatenate([inputs[0], surface.holes.caps]), n))
     surface.faces, norms, surface._normals = with_caps(*inputs, v, surface.holes)
     if len(surface.faces) > n:
-        f = surface.faces
-        volume = abs(float(np.einsum("ij,ij->", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]])))) / 6
+        volume = signed_volume(v, surface.faces)  # positive: with_caps turned them out
         if 36 * np.pi * volume**2 <= FLAT * (0.5 * float(norms.sum())) ** 3:
             raise MeshInputError(
                 "the mesh is too open to tell inside from outside: closed by caps over its "
@@ -263,15 +265,9 @@ def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
 
 def _overfull(f: np.ndarray, n: int) -> np.ndarray:
     """Indices (from ``n``) of the faces ``f[n:]`` with an edge in more than two faces."""
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    key = e[:, 0] * (int(f.max()) + 1) + e[:, 1]
-    order = np.argsort(key, kind="stable")
-    k = key[order]
-    start = np.r_[True, k[1:] != k[:-1]]
-    count = np.diff(np.r_[np.flatnonzero(start), len(k)])
-    over = np.repeat(count > 2, count)[np.argsort(order, kind="stable")]
-    face = np.tile(np.arange(len(f)), 3)
-    return np.unique(face[over & (face >= n)]) - n
+    c = f[n:]
+    count = _edge_count(f, c.reshape(-1), c[:, [1, 2, 0]].reshape(-1)).reshape(-1, 3)
+    return np.flatnonzero((count > 2).any(axis=1))
 
 
 #: A facet's surface centre farther than this (times R) from the input's faces

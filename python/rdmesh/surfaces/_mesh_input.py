@@ -190,12 +190,16 @@ def oriented_mesh(mesh: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
     area = area_vectors(v, f)
     if not np.any(np.linalg.norm(area, axis=1) > 0):
         raise MeshInputError("every face of the mesh has zero area")
-    volume = float(np.einsum("ij,ij->", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]]))) / 6
-    if volume < 0:
+    if signed_volume(v, f) < 0:
         f = f[:, ::-1].copy()
         area = -area
     norms = np.linalg.norm(area, axis=1)
     return v, f, norms, area / np.where(norms > 0, norms, 1.0)[:, None]
+
+
+def signed_volume(v: np.ndarray, f: np.ndarray) -> float:
+    """The volume the faces enclose, positive when they face outward (closed meshes)."""
+    return float(np.einsum("ij,ij->", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]]))) / 6
 
 
 def bounding_sphere(v: np.ndarray) -> tuple[np.ndarray, float]:

@@ -31,7 +31,7 @@ def _holes(surface, norms, holes: str, features: Any):
     """The holes :class:`MeshSurface` keeps (None with ``holes="fill"`` or none),
     after their rims' slivers are trimmed (``surface.vertices``, ``faces`` and
     ``_normals`` updated); returns them and the faces' area norms."""
-    if holes != "keep" or len(rim_half_edges(surface.faces)) == 0:
+    if holes != "keep" or len(rim_half_edges(surface.faces)) == 0:  # closed: one pass
         return None, norms
     if _sharp_angle(0, features) is None:
         raise ValueError(
@@ -44,7 +44,7 @@ def _holes(surface, norms, holes: str, features: Any):
         norms = np.linalg.norm(area, axis=1)
         surface.vertices, surface.faces = v, f
         surface._normals = area / np.where(norms > 0, norms, 1.0)[:, None]
-    found = find_holes(surface.vertices, surface.faces)
+    found = find_holes(v, f)  # None if trimming closed the mesh
     if found is not None:
         found.trimmed = (dropped, added)
     return found, norms
