@@ -167,8 +167,8 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
 
     **What the remesh guarantees** (a run that ends with ``complete=True``; the
     input is piecewise flat, so the smooth-surface theorems do not apply):
-    every angle is at least the angle bound (20 degrees next to protecting
-    balls; not enforced at rim corners), every surface Delaunay ball is below
+    every angle is at least the angle bound (20 degrees next to balls when repairs
+    reach it; not enforced next to a rim), every surface Delaunay ball is below
     the size bound, every facet's circumcentre is within the distance bound of
     its surface centre, and every vertex lies on the input (or on what closes a
     hole, with ``holes="fill"``). The distance bound is also measured both ways
