@@ -256,3 +256,59 @@ def test_a_mesh_with_holes_kept_is_sent_to_a_worker_whole():
     b = rdmesh.mesh_surface(there, radius_bound=0.2)
     assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
     assert a.report["holes"] == b.report["holes"]
+
+
+def test_rim_steps_are_skipped_by_the_rim_curves():
+    # A rim with a step a hundredth of its edges: the curve skips the step's
+    # vertex, so no two corners lie a step apart.
+    v, f = _open_sphere((0.6,), subdivisions=3)
+    half = _mesh_holes.rim_half_edges(f)
+    a, b = half[0, 0], half[0, 1]
+    step = v[a] + 0.01 * (v[b] - v[a])
+    v2 = np.vstack([v, step])
+    s_id = len(v)
+    face = half[0, 3]
+    tri = f[face]
+    c = tri[(np.flatnonzero(tri == a)[0] + 2) % 3]  # the third vertex
+    f2 = np.vstack([np.delete(f, face, axis=0), [[a, s_id, c], [s_id, b, c]]])
+    holes = _mesh_holes.find_holes(v2, f2)
+    pts = np.concatenate(holes.curves)
+    assert not np.any(np.all(np.isclose(pts, step, atol=0.0, rtol=0.0), axis=1))
+    # The cap still covers the whole rim, the step's vertex included.
+    assert s_id in np.concatenate(holes.rims)
+    # ... and the curves stray from the rim by less than the step.
+    lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    assert lengths.min() > 0.5 * np.linalg.norm(v[b] - v[a]) * 0.01
+
+
+@pytest.mark.slow
+def test_a_marching_cubes_rim_is_protected_and_its_holes_kept():
+    # The thin-handled genus-2 solid of the real-data benchmark with three
+    # holes cut: its cut rims have steps and corners at small angles, whose
+    # balls used to shrink to the floor (the holes were then filled instead).
+    from skimage import measure
+
+    def g(p):
+        x, y, z = p.T
+        a = np.hypot(np.hypot(x - 1.05, y) - 1.0, z) - 0.12
+        b = np.hypot(np.hypot(x + 1.05, y) - 1.0, z) - 0.12
+        return np.minimum(a, b)
+
+    h = 0.015
+    lo, hi = np.array([-2.3, -1.25, -0.25]), np.array([2.3, 1.25, 0.25])
+    n = np.ceil((hi - lo) / h).astype(int) + 1
+    axes = [lo[i] + h * np.arange(n[i]) for i in range(3)]
+    pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    v, f, _, _ = measure.marching_cubes(g(pts).reshape(*n), 0.0, spacing=(h, h, h))
+    v, f = v + lo, f.astype(np.int64)
+    diag = np.linalg.norm(np.ptp(v, axis=0))
+    centres = v[f].mean(axis=1)
+    keep = np.ones(len(f), bool)
+    for i in np.linspace(0, len(v) - 1, 5)[1:-1].astype(int):
+        keep &= np.linalg.norm(centres - v[i], axis=1) > 0.03 * diag
+    f = f[keep]
+    m = rdmesh.mesh_surface(
+        rdmesh.MeshSurface((v, f)), radius_bound=0.01 * diag, distance_bound=0.001 * diag
+    )
+    assert m.report["holes"]["cut"] and not m.report["holes"].get("filled_again")
+    assert component_topology(m.faces, len(m.vertices)) == component_topology(f, len(v))

@@ -88,6 +88,28 @@ def test_corners_near_42_degrees_are_protected(h):
         check_invariants(protect(g, lambda x: np.full(len(x), h), 2.0))
 
 
+@pytest.mark.parametrize(
+    "angle, gap", [(12, 1e-2), (12, 1e-3), (15, 3e-3), (20, 3e-3), (20, 3e-4), (25, 1e-3)]
+)
+def test_a_small_angle_next_to_a_near_corner_is_protected(angle, gap):
+    # Two curves leave each of two corners `gap` apart at a small angle (a
+    # marching-cubes rim's step). Shrinking a corner's ball whenever a ball of
+    # its own curves met it let the squeeze between the two curves follow the
+    # corner down to the floor; it now keeps its size and that ball steps back.
+    a = np.radians(angle)
+    o, q = np.zeros(3), np.array([0.0, 0.0, gap])
+    curves = [
+        np.array([o, [1.0, 0, 0]]),
+        np.array([o, [np.cos(a), np.sin(a), 0]]),
+        np.array([o, q]),
+        np.array([q, [-1.0, 0, gap]]),
+        np.array([q, [-np.cos(a), -np.sin(a), gap]]),
+    ]
+    b = protect(graph_of(curves), lambda x: np.full(len(x), 0.1), 2.0, distance=0.01)
+    check_invariants(b)
+    assert b.radii[b.corner >= 0].min() >= gap / 4
+
+
 def test_a_circle_is_one_closed_chain():
     t = np.linspace(0, 2 * np.pi, 200)
     circle = np.c_[np.cos(t), np.sin(t), np.zeros_like(t)]

@@ -279,9 +279,17 @@ def _repair(balls: Balls, st: _State, graph: FeatureGraph) -> bool:
     broken = False
     meet = _meeting(balls)
     if len(meet):
+        keep, step, own = _own_meetings(balls, st, graph, meet, r)
         d = row_norms(c[meet[:, 0]] - c[meet[:, 1]])
-        np.minimum.at(r, meet[:, 0], CURVE_GAP * d)
-        np.minimum.at(r, meet[:, 1], CURVE_GAP * d)
+        # A corner's ball met by a ball of a curve it ends, near it along the
+        # curve, keeps its size and that ball steps back: shrinking both, as
+        # between curves, lets the squeeze of two curves leaving the corner
+        # at a small angle follow the corner down to the floor.
+        back = own & (d > r[keep] * (1.0 + 1e-9))
+        np.minimum.at(r, step[back], RADIUS_FACTOR * (d[back] - r[keep[back]]))
+        rest = meet[~back]
+        np.minimum.at(r, rest[:, 0], CURVE_GAP * d[~back])
+        np.minimum.at(r, rest[:, 1], CURVE_GAP * d[~back])
         broken = True
     p = balls.pairs
     if len(p):
@@ -291,18 +299,52 @@ def _repair(balls: Balls, st: _State, graph: FeatureGraph) -> bool:
         if inside.any():
             np.minimum.at(r, big[inside], RADIUS_FACTOR * d[inside])
             broken = True
-    _write_radii(balls, st, r)
     if len(p):
         ra, rb = r[p[:, 0]], r[p[:, 1]]
         gap = d >= ra + rb - LENS * np.minimum(ra, rb)
+        # Consecutive balls that overlap, but by less than the lens: a ball
+        # between them would have its centre in both (and the larger would
+        # shrink again), so one of them moves closer instead.
+        thin = gap & (d < ra + rb)
+    _write_radii(balls, st, r)
+    if len(p):
+        moved = _pull(balls, st, graph, np.flatnonzero(thin), r, d) if thin.any() else thin
+        gap &= ~moved
+        broken |= bool(moved.any() | gap.any())
         if gap.any():
-            broken = True
             _split(balls, st, graph, np.flatnonzero(gap), r)
     return broken
 
 
 #: Consecutive balls must overlap by this fraction of the smaller radius.
 LENS = 0.25
+#: A ball moved to make the lens overlaps its neighbour this much more.
+PULL_LENS = 1.02
+
+
+def _own_meetings(
+    balls: Balls, st: _State, graph: FeatureGraph, meet: np.ndarray, r: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Of the meeting pairs: the ball that would keep its size (a corner, else
+    the smaller), the other, and whether the first is a corner that the
+    other's curve ends at, within twice their distance of it along the curve."""
+    a, b = meet[:, 0], meet[:, 1]
+    corner_a, corner_b = balls.corner[a] >= 0, balls.corner[b] >= 0
+    keep_b = corner_b | (~corner_a & (r[b] < r[a]))
+    keep, step = np.where(keep_b, b, a), np.where(keep_b, a, b)
+    own = np.zeros(len(meet), bool)
+    k = np.flatnonzero((balls.corner[keep] >= 0) & (balls.curve[step] >= 0))
+    if len(k) == 0:
+        return keep, step, own
+    cv = balls.curve[step[k]]
+    arc = np.array([st.s[i][j] for i, j in zip(cv, balls.index[step[k]], strict=True)])
+    length = np.array([graph.curves[i].length for i in cv])
+    at = balls.corner[keep[k]]
+    d = row_norms(balls.centres[keep[k]] - balls.centres[step[k]])
+    along = np.where(graph.ends[cv, 0] == at, arc, np.inf)
+    along = np.minimum(along, np.where(graph.ends[cv, 1] == at, length - arc, np.inf))
+    own[k] = along <= 2.0 * d
+    return keep, step, own
 
 
 def _write_radii(balls: Balls, st: _State, r: np.ndarray) -> None:
@@ -311,6 +353,101 @@ def _write_radii(balls: Balls, st: _State, r: np.ndarray) -> None:
     for i in range(len(st.r)):
         mine = balls.curve == i
         st.r[i] = r[mine][np.argsort(balls.index[mine])]
+
+
+def _pull(
+    balls: Balls,
+    st: _State,
+    graph: FeatureGraph,
+    which: np.ndarray,
+    r: np.ndarray,
+    d: np.ndarray,
+) -> np.ndarray:
+    """Mend consecutive pairs ``which`` that overlap by less than the lens
+    without a ball between them (its centre would lie in both): the smaller
+    ball grows, if it then meets no other ball; else one that is not a corner
+    moves towards the other, if it keeps the lens with its other neighbour.
+    Returns which pairs (over every pair) were mended; the rest are split."""
+    mended = np.zeros(len(balls.pairs), bool)
+    touched: set[int] = set()
+    tree = cKDTree(balls.centres)
+    reach = float(r.max())
+    for k in which:
+        a, b = (int(x) for x in balls.pairs[k])
+        if a in touched or b in touched:
+            continue
+        small, big = (a, b) if r[a] <= r[b] else (b, a)
+        grown = PULL_LENS * (d[k] - r[big]) / (1.0 - LENS)
+        near = _neighbours(balls, small)
+        if _fits(balls, tree, reach, small, grown, r, near):
+            r[small] = grown
+            touched.update((a, b))
+            mended[k] = True
+            continue
+        for m, other in ((small, big), (big, small)):
+            if balls.corner[m] >= 0:
+                continue
+            if _move_towards(balls, st, graph, m, other, r, int(balls.pair_curve[k])):
+                touched.update((a, b))
+                mended[k] = True
+                break
+    if mended.any():
+        _write_radii(balls, st, r)
+    return mended
+
+
+def _neighbours(balls: Balls, ball: int) -> tuple[int, ...]:
+    """The balls consecutive to ``ball`` on its curve's chain (a corner: on every
+    curve ending at it)."""
+    p = balls.pairs
+    return tuple(int(x) for x in np.r_[p[p[:, 0] == ball, 1], p[p[:, 1] == ball, 0]])
+
+
+def _fits(balls, tree, reach, ball, radius, r, near) -> bool:
+    """Whether ``ball`` with ``radius`` holds no neighbour's centre and meets no
+    ball but its neighbours."""
+    c = balls.centres[ball]
+    for j in tree.query_ball_point(c, radius + reach):
+        if j == ball:
+            continue
+        dist = float(np.linalg.norm(balls.centres[j] - c))
+        if j in near:
+            if dist <= radius * (1.0 + 1e-9):
+                return False
+        elif dist <= (radius + r[j]) * (1.0 + 1e-9):
+            return False
+    return True
+
+
+def _move_towards(balls, st, graph, m: int, other: int, r, curve: int) -> bool:
+    """Move curve ball ``m`` along ``curve`` towards its neighbour ``other`` so
+    that they overlap by the lens, if ``m`` then keeps the lens with its other
+    neighbour without holding its centre; returns whether it moved. (A ball it
+    then meets is found by the next round's check.)"""
+    c = graph.curves[curve]
+    j = int(balls.index[m])
+    s_m = float(st.s[curve][j])
+    d = float(np.linalg.norm(balls.centres[m] - balls.centres[other]))
+    step = d - (r[other] + (1.0 - LENS) * r[m] / PULL_LENS)
+    # Towards ``other``: forward if it comes after ``m`` on the chain.
+    chain = balls.chains[curve]
+    pos = np.flatnonzero(chain == m)[0]
+    forward = pos + 1 < len(chain) and chain[pos + 1] == other
+    s_new = s_m + step if forward else s_m - step
+    if c.closed:
+        s_new = float(np.mod(s_new, c.length))
+    elif not 0.0 < s_new < c.length:
+        return False
+    x = c.on_curve(np.array([s_new]))[0]
+    behind = chain[pos - 1] if forward else chain[(pos + 1) % len(chain)]
+    if c.closed and forward and pos == 0:
+        behind = chain[-2]  # the chain repeats its first ball last
+    gap = float(np.linalg.norm(x - balls.centres[behind]))
+    if gap >= r[m] + r[behind] - LENS * min(r[m], r[behind]) or gap <= max(r[m], r[behind]):
+        return False
+    st.s[curve][j] = s_new
+    st.x[curve][j] = x
+    return True
 
 
 def _split(

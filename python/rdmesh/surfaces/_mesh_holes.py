@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import MeshInputError
+from .._vectors import row_norms
 from ..core import _rdt as core
 from ..features.sharp_edges import chain_edges
 from ._mesh_input import signed_volume
@@ -27,6 +28,9 @@ RIM_SOURCE = "hole rim"
 #: A rim turning by at least this many degrees at a vertex has a corner there
 #: (a curve's balls cannot shrink around a sharp turn without one).
 RIM_TURN = 60.0
+#: Rim edges under this fraction of the median rim edge are steps that the
+#: rims' feature curves skip (:func:`_without_steps`).
+RIM_STEP = 0.1
 #: ``holes=`` choices of :class:`~rdmesh.MeshSurface`.
 HOLES = ("keep", "fill")
 
@@ -191,12 +195,13 @@ def find_holes(vertices: np.ndarray, faces: np.ndarray) -> Holes | None:
     half = rim_half_edges(faces)
     if len(half) == 0:
         return None
-    chains, closed = chain_edges(vertices, np.sort(half[:, :2], axis=1), RIM_TURN)
+    loops = rim_loops(half[:, :2])
+    edges = half[:, :2] if loops is None else _without_steps(vertices, loops)
+    chains, closed = chain_edges(vertices, np.sort(edges, axis=1), RIM_TURN)
     curves = [
         vertices[np.r_[c, c[:1]]] if cl else vertices[c]
         for c, cl in zip(chains, closed, strict=True)
     ]
-    loops = rim_loops(half[:, :2])
     if loops is None:
         return Holes([], curves, np.zeros((0, 3), np.int64), np.zeros(0, np.int64))
     third = np.full(len(vertices), -1, np.int64)
@@ -204,6 +209,29 @@ def find_holes(vertices: np.ndarray, faces: np.ndarray) -> Holes | None:
     caps = [cap(vertices, loop, third[loop]) for loop in loops]
     rim = np.concatenate([np.full(len(c), k) for k, c in enumerate(caps)]).astype(np.int64)
     return Holes(loops, curves, np.concatenate(caps), rim)
+
+
+def _without_steps(vertices: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
+    """The rims' edges ``(k, 2)`` for their feature curves, tiny steps left out:
+    a vertex entered by an edge under :data:`RIM_STEP` times the median rim
+    edge is skipped, while the run of such edges it ends stays that short (a
+    marching-cubes rim's steps would otherwise need balls smaller than the
+    step, two corners a tiny edge apart). The curves stray from the rims by
+    less than the run."""
+    lengths = [row_norms(vertices[np.roll(loop, -1)] - vertices[loop]) for loop in loops]
+    short = RIM_STEP * float(np.median(np.concatenate(lengths)))
+    out = []
+    for loop, length in zip(loops, lengths, strict=True):
+        # Edge i runs from loop[i] to loop[i + 1]; vertex 0 is always kept.
+        tiny = np.r_[False, length[:-1] < short]
+        start = np.flatnonzero(~tiny)
+        run = np.cumsum(~tiny) - 1
+        walked = np.cumsum(np.r_[0.0, length[:-1]] * tiny)
+        keep = loop[~(tiny & (walked - walked[start[run]] <= short))]
+        if len(keep) < 3:
+            keep = loop
+        out.append(np.c_[keep, np.roll(keep, -1)])
+    return np.concatenate(out)
 
 
 def with_caps(
