@@ -93,9 +93,10 @@ def test_corners_near_42_degrees_are_protected(h):
 )
 def test_a_small_angle_next_to_a_near_corner_is_protected(angle, gap):
     # Two curves leave each of two corners `gap` apart at a small angle (a
-    # marching-cubes rim's step). Shrinking a corner's ball whenever a ball of
-    # its own curves met it let the squeeze between the two curves follow the
-    # corner down to the floor; it now keeps its size and that ball steps back.
+    # marching-cubes rim's step). A stretch shorter than the spacing got two
+    # new balls at its ends, each holding the other's centre, and a pair short
+    # of the lens a ball inside both: each round shrank a ball below the last,
+    # down to the floor.
     a = np.radians(angle)
     o, q = np.zeros(3), np.array([0.0, 0.0, gap])
     curves = [
@@ -107,7 +108,25 @@ def test_a_small_angle_next_to_a_near_corner_is_protected(angle, gap):
     ]
     b = protect(graph_of(curves), lambda x: np.full(len(x), 0.1), 2.0, distance=0.01)
     check_invariants(b)
-    assert b.radii[b.corner >= 0].min() >= gap / 4
+    assert b.radii[b.corner >= 0].min() >= gap / 8
+
+
+@pytest.mark.parametrize("narrow, step", [(0.05, 1e-3), (0.03, 1e-4), (0.3, 1e-4)])
+def test_a_zigzag_with_narrow_teeth_and_steps_is_protected(narrow, step):
+    # A marching-cubes rim's shape: teeth alternately wide and narrow (7-17
+    # degrees at the narrow tips), with a small step at every third tip.
+    pts = [np.zeros(3)]
+    for i in range(12):
+        tip = np.array([pts[-1][0] + (narrow if i % 2 else 0.5), 1.0, 0.0])
+        pts.append(tip)
+        if i % 3 == 0:
+            pts.append(tip + [step, 0, step / 10])
+        pts.append(np.array([pts[-1][0] + (narrow if i % 2 else 0.5), 0.0, 0.0]))
+    pts = np.array(pts)
+    g = graph_of([pts[i : i + 2] for i in range(len(pts) - 1)], radius=20.0)
+    b = protect(g, lambda x: np.full(len(x), 0.3), 20.0, distance=0.03)
+    check_invariants(b)
+    assert b.radii.min() >= step / 4
 
 
 def test_a_circle_is_one_closed_chain():

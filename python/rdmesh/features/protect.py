@@ -279,17 +279,9 @@ def _repair(balls: Balls, st: _State, graph: FeatureGraph) -> bool:
     broken = False
     meet = _meeting(balls)
     if len(meet):
-        keep, step, own = _own_meetings(balls, st, graph, meet, r)
         d = row_norms(c[meet[:, 0]] - c[meet[:, 1]])
-        # A corner's ball met by a ball of a curve it ends, near it along the
-        # curve, keeps its size and that ball steps back: shrinking both, as
-        # between curves, lets the squeeze of two curves leaving the corner
-        # at a small angle follow the corner down to the floor.
-        back = own & (d > r[keep] * (1.0 + 1e-9))
-        np.minimum.at(r, step[back], RADIUS_FACTOR * (d[back] - r[keep[back]]))
-        rest = meet[~back]
-        np.minimum.at(r, rest[:, 0], CURVE_GAP * d[~back])
-        np.minimum.at(r, rest[:, 1], CURVE_GAP * d[~back])
+        np.minimum.at(r, meet[:, 0], CURVE_GAP * d)
+        np.minimum.at(r, meet[:, 1], CURVE_GAP * d)
         broken = True
     p = balls.pairs
     if len(p):
@@ -320,31 +312,6 @@ def _repair(balls: Balls, st: _State, graph: FeatureGraph) -> bool:
 LENS = 0.25
 #: A ball moved to make the lens overlaps its neighbour this much more.
 PULL_LENS = 1.02
-
-
-def _own_meetings(
-    balls: Balls, st: _State, graph: FeatureGraph, meet: np.ndarray, r: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Of the meeting pairs: the ball that would keep its size (a corner, else
-    the smaller), the other, and whether the first is a corner that the
-    other's curve ends at, within twice their distance of it along the curve."""
-    a, b = meet[:, 0], meet[:, 1]
-    corner_a, corner_b = balls.corner[a] >= 0, balls.corner[b] >= 0
-    keep_b = corner_b | (~corner_a & (r[b] < r[a]))
-    keep, step = np.where(keep_b, b, a), np.where(keep_b, a, b)
-    own = np.zeros(len(meet), bool)
-    k = np.flatnonzero((balls.corner[keep] >= 0) & (balls.curve[step] >= 0))
-    if len(k) == 0:
-        return keep, step, own
-    cv = balls.curve[step[k]]
-    arc = np.array([st.s[i][j] for i, j in zip(cv, balls.index[step[k]], strict=True)])
-    length = np.array([graph.curves[i].length for i in cv])
-    at = balls.corner[keep[k]]
-    d = row_norms(balls.centres[keep[k]] - balls.centres[step[k]])
-    along = np.where(graph.ends[cv, 0] == at, arc, np.inf)
-    along = np.minimum(along, np.where(graph.ends[cv, 1] == at, length - arc, np.inf))
-    own[k] = along <= 2.0 * d
-    return keep, step, own
 
 
 def _write_radii(balls: Balls, st: _State, r: np.ndarray) -> None:
@@ -466,9 +433,11 @@ def _split(
         # New centres in the stretch neither ball covers, a quarter spacing
         # inside it, spaced at most the smaller radius.
         step = min(r[a], r[b])
-        lo, hi = sa + r[a] + 0.25 * step, sb - r[b] - 0.25 * step
-        if hi <= lo:
-            s_new = np.array([0.5 * (sa + r[a] + sb - r[b])])
+        ea, eb = sa + r[a], sb - r[b]
+        lo, hi = ea + 0.25 * step, eb - 0.25 * step
+        if hi - lo < step:
+            # One ball covers it: two, at its ends, would hold each other's centre.
+            s_new = np.array([0.5 * (ea + eb)])
             r_new = np.array([RADIUS_FACTOR * step])
         else:
             n = int(np.ceil((hi - lo) / max(step, 1e-300)))
