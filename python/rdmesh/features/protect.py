@@ -30,8 +30,12 @@ most 0.9 h at its centre. The invariants are then checked exactly on the
 balls and repaired as Mesh_3's ``refine_balls`` and
 ``check_and_repopulate_edges`` do: balls that meet but are not consecutive
 shrink to their distance / 2.1, and new balls fill a stretch that consecutive
-balls no longer cover; at most :data:`MAX_LOOPS` times (CGAL caps its loop at
-29, with a warning only), after which :class:`FeatureError` is raised.
+balls no longer cover (one ball where the stretch is shorter than the
+spacing). Consecutive balls that overlap by less than :data:`LENS` are mended
+instead: the smaller grows, or one moves along the curve towards the other (a
+ball between them would hold both centres). At most :data:`MAX_LOOPS` times
+(CGAL caps its loop at 29, with a warning only), after which
+:class:`FeatureError` is raised.
 """
 
 from __future__ import annotations
@@ -296,7 +300,7 @@ def _repair(balls: Balls, st: _State, graph: FeatureGraph) -> bool:
         gap = d >= ra + rb - LENS * np.minimum(ra, rb)
         # Consecutive balls that overlap, but by less than the lens: a ball
         # between them would have its centre in both (and the larger would
-        # shrink again), so one of them moves closer instead.
+        # shrink again), so one of them grows or moves closer instead.
         thin = gap & (d < ra + rb)
     _write_radii(balls, st, r)
     if len(p):
@@ -395,7 +399,10 @@ def _move_towards(balls, st, graph, m: int, other: int, r, curve: int) -> bool:
     j = int(balls.index[m])
     s_m = float(st.s[curve][j])
     d = float(np.linalg.norm(balls.centres[m] - balls.centres[other]))
-    step = d - (r[other] + (1.0 - LENS) * r[m] / PULL_LENS)
+    want = r[other] + (1.0 - LENS) * r[m] / PULL_LENS
+    if want <= max(r[m], r[other]):
+        return False  # it would hold the other's centre
+    step = d - want
     # Towards ``other``: forward if it comes after ``m`` on the chain.
     chain = balls.chains[curve]
     pos = np.flatnonzero(chain == m)[0]
