@@ -110,6 +110,16 @@ def check_remesh(
         assert "intersects itself" in mesh.stats["stop_reason"]
         assert mesh.report["input"]["self_intersections"]["pairs"] == len(ms.self_intersections)
         mesh.complete = True
+    refused = not mesh.complete and not len(ms.self_intersections)
+    if refused:
+        # Noise can bring two sheets closer than the spacing floor (a fold's tip):
+        # the points refused there must be the ones the report names. The facets
+        # next to them are not proven (their centres are sampled), so only the
+        # whole-mesh properties are checked below.
+        close = mesh.report["input"].get("close_sheets") or {}
+        assert len(mesh.unresolved) > 0
+        assert close.get("points") == len(mesh.unresolved)
+        assert "nearly touch" in mesh.report["input"]["statement"]
     # The input's topology when it is a closed manifold (marching cubes may already
     # have joined parts closer than its grid), else the surface's.
     if closed_manifold_problems(ms.faces, len(ms.vertices)) == []:
@@ -117,11 +127,16 @@ def check_remesh(
     else:
         info = SURFACES[name]
         expected = [2] * info.components if info.components > 1 else [info.euler]
-    # Closed manifold, angle bound, size and distance bounds, vertices on the input,
-    # orientation: the independent checks of the smooth-surface tests.
-    assert_good_mesh(
-        mesh, ms, ms.grad, ms.radius, angle_bound=30, sizing=rb, euler=expected, distance_bound=db
-    )
+    if refused:
+        assert closed_manifold_problems(mesh.faces, len(mesh.vertices)) == []
+        assert euler_per_component(mesh.faces, len(mesh.vertices)) == expected
+    else:
+        # Closed manifold, angle bound, size and distance bounds, vertices on the
+        # input, orientation: the independent checks of the smooth-surface tests.
+        assert_good_mesh(
+            mesh, ms, ms.grad, ms.radius, angle_bound=30, sizing=rb, euler=expected,
+            distance_bound=db,
+        )  # fmt: skip
     # Each output triangle lies in its surface Delaunay ball (radius <= rb) centred on
     # the input: output -> input <= rb. Input -> output is a sampling property.
     to_input, to_output = hausdorff((mesh.vertices, mesh.faces), (ms.vertices, ms.faces))

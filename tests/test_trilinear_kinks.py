@@ -176,10 +176,12 @@ def test_kink_balls_mark_kink_curves_and_their_corners_only():
 
 
 @pytest.mark.slow
-def test_without_protection_the_sharp_lens_is_not_closed():
-    # A smaller lens (rim radius 3.5), its rim's normals 148 degrees apart.
+def test_without_protection_the_sharp_lens_leaves_points_unresolved():
+    # A smaller lens (rim radius 3.5), its rim's normals 148 degrees apart: the
+    # thin wedge at the rim looks the same at every scale, so refinement stops
+    # at the floor there (closed since the pinched vertices are relabelled).
     m = rdmesh.mesh_surface(lens(1.0, 0.04, features="none"), radius_bound=1.0)
-    assert not m.report["closed_manifold"] and len(m.unresolved) > 0
+    assert not m.complete and len(m.unresolved) > 0
 
 
 def test_kinks_that_cannot_be_protected_are_dropped_and_the_rest_kept():
