@@ -129,6 +129,24 @@ def test_a_zigzag_with_narrow_teeth_and_steps_is_protected(narrow, step):
     assert b.radii.min() >= step / 4
 
 
+def test_a_ball_put_between_two_overlapping_along_the_curve_lies_between_them():
+    # Two consecutive balls the repair finds apart in space but overlapping along
+    # the arc (a bend, or points projected onto an exact curve): the new ball
+    # must go between them, not behind one of them onto another ball.
+    from rdmesh.features.protect import _assemble, _split, _State
+
+    g = graph_of([np.array([[0.0, 0, 0], [1.0, 0, 0]])])
+    c = g.curves[0]
+    s = np.array([0.2, 0.4, 0.5])
+    st = _State([s.copy()], [c.on_curve(s)], [np.array([0.05, 0.05, 0.5])], np.full(2, 0.01))
+    balls = _assemble(g, st)
+    k = np.flatnonzero((balls.index[balls.pairs[:, 0]] == 1) & (balls.index[balls.pairs[:, 1]] == 2))
+    _split(balls, st, g, k, balls.radii.copy())
+    new = np.setdiff1d(st.s[0], s)
+    assert len(new) == 1 and 0.4 < new[0] < 0.5
+    assert np.all(np.diff(st.s[0]) > 0)
+
+
 def test_a_circle_is_one_closed_chain():
     t = np.linspace(0, 2 * np.pi, 200)
     circle = np.c_[np.cos(t), np.sin(t), np.zeros_like(t)]

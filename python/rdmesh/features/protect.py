@@ -316,6 +316,8 @@ def _repair(balls: Balls, st: _State, graph: FeatureGraph) -> bool:
 LENS = 0.25
 #: A ball moved to make the lens overlaps its neighbour this much more.
 PULL_LENS = 1.02
+#: New balls per stretch and round at most (the next round fills what is left).
+MAX_SPLIT = 1000
 
 
 def _write_radii(balls: Balls, st: _State, r: np.ndarray) -> None:
@@ -442,12 +444,19 @@ def _split(
         step = min(r[a], r[b])
         ea, eb = sa + r[a], sb - r[b]
         lo, hi = ea + 0.25 * step, eb - 0.25 * step
+        if not step > 0.0:
+            continue  # a ball shrunk to nothing: protect() refuses it (the floor)
         if hi - lo < step:
             # One ball covers it: two, at its ends, would hold each other's centre.
-            s_new = np.array([0.5 * (ea + eb)])
+            mid = 0.5 * (ea + eb)
+            if not sa < mid < sb:
+                # The balls overlap along the arc but not in space (the curve
+                # bends, or its points are projected onto an exact curve).
+                mid = sa + (sb - sa) * r[a] / (r[a] + r[b])
+            s_new = np.array([mid])
             r_new = np.array([RADIUS_FACTOR * step])
         else:
-            n = int(np.ceil((hi - lo) / max(step, 1e-300)))
+            n = min(int(np.ceil((hi - lo) / step)), MAX_SPLIT)
             s_new = lo + (hi - lo) * np.arange(n + 1) / max(n, 1)
             r_new = np.full(
                 len(s_new), RADIUS_FACTOR * min(step, (hi - lo) / max(n, 1) + 0.5 * step)
