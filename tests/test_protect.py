@@ -140,7 +140,8 @@ def test_a_ball_put_between_two_overlapping_along_the_curve_lies_between_them():
     s = np.array([0.2, 0.4, 0.5])
     st = _State([s.copy()], [c.on_curve(s)], [np.array([0.05, 0.05, 0.5])], np.full(2, 0.01))
     balls = _assemble(g, st)
-    k = np.flatnonzero((balls.index[balls.pairs[:, 0]] == 1) & (balls.index[balls.pairs[:, 1]] == 2))
+    first, second = balls.index[balls.pairs[:, 0]], balls.index[balls.pairs[:, 1]]
+    k = np.flatnonzero((first == 1) & (second == 2))
     _split(balls, st, g, k, balls.radii.copy())
     new = np.setdiff1d(st.s[0], s)
     assert len(new) == 1 and 0.4 < new[0] < 0.5

@@ -295,6 +295,7 @@ def _repair(balls: Balls, st: _State, graph: FeatureGraph) -> bool:
         if inside.any():
             np.minimum.at(r, big[inside], RADIUS_FACTOR * d[inside])
             broken = True
+    gap = np.zeros(len(p), bool)
     if len(p):
         ra, rb = r[p[:, 0]], r[p[:, 1]]
         gap = d >= ra + rb - LENS * np.minimum(ra, rb)
@@ -302,13 +303,13 @@ def _repair(balls: Balls, st: _State, graph: FeatureGraph) -> bool:
         # between them would have its centre in both (and the larger would
         # shrink again), so one of them grows or moves closer instead.
         thin = gap & (d < ra + rb)
+        if thin.any():
+            gap &= ~_pull(balls, st, graph, np.flatnonzero(thin), r, d)
+            broken = True
     _write_radii(balls, st, r)
-    if len(p):
-        moved = _pull(balls, st, graph, np.flatnonzero(thin), r, d) if thin.any() else thin
-        gap &= ~moved
-        broken |= bool(moved.any() | gap.any())
-        if gap.any():
-            _split(balls, st, graph, np.flatnonzero(gap), r)
+    if gap.any():
+        broken = True
+        _split(balls, st, graph, np.flatnonzero(gap), r)
     return broken
 
 
@@ -340,11 +341,13 @@ def _pull(
     without a ball between them (its centre would lie in both): the smaller
     ball grows, if it then meets no other ball; else one that is not a corner
     moves towards the other, if it keeps the lens with its other neighbour.
-    Returns which pairs (over every pair) were mended; the rest are split."""
+    Grown radii are written to ``r``, moved balls to ``st``. Returns which
+    pairs (over every pair) were mended; the rest are split."""
     mended = np.zeros(len(balls.pairs), bool)
     touched: set[int] = set()
     tree = cKDTree(balls.centres)
-    reach = float(r.max())
+    # A grown ball stays under this (d - r_big < r_small for a thin pair).
+    reach = float(r.max()) * PULL_LENS / (1.0 - LENS)
     for k in which:
         a, b = (int(x) for x in balls.pairs[k])
         if a in touched or b in touched:
@@ -360,12 +363,10 @@ def _pull(
         for m, other in ((small, big), (big, small)):
             if balls.corner[m] >= 0:
                 continue
-            if _move_towards(balls, st, graph, m, other, r, int(balls.pair_curve[k])):
+            if _move_towards(balls, st, graph, m, other, r, float(d[k])):
                 touched.update((a, b))
                 mended[k] = True
                 break
-    if mended.any():
-        _write_radii(balls, st, r)
     return mended
 
 
@@ -392,32 +393,30 @@ def _fits(balls, tree, reach, ball, radius, r, near) -> bool:
     return True
 
 
-def _move_towards(balls, st, graph, m: int, other: int, r, curve: int) -> bool:
-    """Move curve ball ``m`` along ``curve`` towards its neighbour ``other`` so
-    that they overlap by the lens, if ``m`` then keeps the lens with its other
-    neighbour without holding its centre; returns whether it moved. (A ball it
-    then meets is found by the next round's check.)"""
+def _move_towards(balls, st, graph, m: int, other: int, r, d: float) -> bool:
+    """Move curve ball ``m`` along its curve towards its neighbour ``other``
+    (``d`` apart) so that they overlap by the lens, if ``m`` then keeps the
+    lens with its other neighbour without holding its centre; returns whether
+    it moved. (A ball it then meets is found by the next round's check.)"""
+    curve, j = int(balls.curve[m]), int(balls.index[m])
     c = graph.curves[curve]
-    j = int(balls.index[m])
-    s_m = float(st.s[curve][j])
-    d = float(np.linalg.norm(balls.centres[m] - balls.centres[other]))
     want = r[other] + (1.0 - LENS) * r[m] / PULL_LENS
     if want <= max(r[m], r[other]):
         return False  # it would hold the other's centre
-    step = d - want
-    # Towards ``other``: forward if it comes after ``m`` on the chain.
+    # Its place on the chain: an open curve's chain starts with its corner; a
+    # closed one's repeats its first ball last.
     chain = balls.chains[curve]
-    pos = np.flatnonzero(chain == m)[0]
-    forward = pos + 1 < len(chain) and chain[pos + 1] == other
-    s_new = s_m + step if forward else s_m - step
+    pos = j if c.closed else j + 1
+    forward = chain[pos + 1] == other
+    behind = chain[pos - 1] if pos > 0 else chain[-2]
+    if not forward:
+        behind = chain[pos + 1]
+    s_new = st.s[curve][j] + (d - want if forward else want - d)
     if c.closed:
         s_new = float(np.mod(s_new, c.length))
     elif not 0.0 < s_new < c.length:
         return False
     x = c.on_curve(np.array([s_new]))[0]
-    behind = chain[pos - 1] if forward else chain[(pos + 1) % len(chain)]
-    if c.closed and forward and pos == 0:
-        behind = chain[-2]  # the chain repeats its first ball last
     gap = float(np.linalg.norm(x - balls.centres[behind]))
     if gap >= r[m] + r[behind] - LENS * min(r[m], r[behind]) or gap <= max(r[m], r[behind]):
         return False
@@ -442,10 +441,10 @@ def _split(
         # New centres in the stretch neither ball covers, a quarter spacing
         # inside it, spaced at most the smaller radius.
         step = min(r[a], r[b])
-        ea, eb = sa + r[a], sb - r[b]
-        lo, hi = ea + 0.25 * step, eb - 0.25 * step
         if not step > 0.0:
             continue  # a ball shrunk to nothing: protect() refuses it (the floor)
+        ea, eb = sa + r[a], sb - r[b]
+        lo, hi = ea + 0.25 * step, eb - 0.25 * step
         if hi - lo < step:
             # One ball covers it: two, at its ends, would hold each other's centre.
             mid = 0.5 * (ea + eb)
