@@ -129,6 +129,24 @@ def test_a_zigzag_with_narrow_teeth_and_steps_is_protected(narrow, step):
     assert b.radii.min() >= step / 4
 
 
+@pytest.mark.parametrize("short", [0.03, 0.01, 0.003])
+def test_balls_leaving_a_small_corner_ball_are_graded(short):
+    # A corner kept small by a nearby corner (a short curve between them): the
+    # long curve leaving it got balls of its full spacing right next to the
+    # corner ball, which nearly met the short curve's balls, and refinement
+    # squeezed triangles of 1 degree into the gap (a cut rim's corner).
+    o = np.zeros(3)
+    curves = [np.array([o, [short, 0, 0]]), np.array([o, [0, 1.0, 0]])]
+    b = protect(graph_of(curves), lambda x: np.full(len(x), 0.2), 2.0)
+    check_invariants(b)
+    corner = int(np.flatnonzero((b.corner >= 0) & (np.linalg.norm(b.centres, axis=1) == 0))[0])
+    chain = next(c for c in b.chains if c[0] == corner and b.centres[c[-1], 1] > 0.5)
+    r = b.radii[chain]
+    # Consecutive radii change by a bounded ratio from the corner on (16 and
+    # 54 times before, for the two shorter curves).
+    assert (np.maximum(r[1:], r[:-1]) <= 4.0 * np.minimum(r[1:], r[:-1])).all()
+
+
 def test_a_ball_put_between_two_overlapping_along_the_curve_lies_between_them():
     # Two consecutive balls the repair finds apart in space but overlapping along
     # the arc (a bend, or points projected onto an exact curve): the new ball

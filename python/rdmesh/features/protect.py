@@ -23,9 +23,10 @@ Sizes. The spacing ``h`` of the centres along a curve is at most:
 * for a corner, a third of the distance to the nearest other corner.
 
 ``h`` grows by at most :data:`GROWTH` per unit of arc (so consecutive spacings
-differ by a bounded ratio). Corner balls have radius at most half the spacing
-there; an open curve's first ball sits a quarter spacing beyond the corner
-ball. A ball's radius is 0.9 times its smaller spacing to a neighbour and at
+differ by a bounded ratio), from at most twice an end corner's radius at the
+corner (Mesh_3 grades a curve's balls between its end balls' sizes). Corner
+balls have radius at most half the spacing there; an open curve's first ball
+sits a quarter spacing beyond the corner ball. A ball's radius is 0.9 times its smaller spacing to a neighbour and at
 most 0.9 h at its centre. The invariants are then checked exactly on the
 balls and repaired as Mesh_3's ``refine_balls`` and
 ``check_and_repopulate_edges`` do: balls that meet but are not consecutive
@@ -618,6 +619,14 @@ def _place(graph, dense, edge_size, sheets, distance, shrink, floor) -> _State:
                 f"{h[k] / CURVE_GAP:.3g} away)",
                 where=d.x[k],
             )
+        if not c.closed:
+            # Graded from the end corners' balls, as Mesh_3 interpolates sizes
+            # between a curve's end balls: a large ball beside a small corner
+            # ball nearly meets the first ball of the corner's other curve, and
+            # refinement squeezes points, and triangles of 1 degree, into the gap.
+            a, b = ends[i]
+            h[0] = min(h[0], r_corner[a] / CORNER_FACTOR)
+            h[-1] = min(h[-1], r_corner[b] / CORNER_FACTOR)
         h = _lipschitz(h, d.s, c.closed, c.length)
         if c.closed:
             s_k = _positions(d.s, h, True, c.length)
