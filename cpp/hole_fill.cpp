@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "power_scale.hpp"
 
 namespace rdmesh::bind {
 
@@ -30,8 +31,12 @@ std::vector<K::Point_3> points_of(const std::vector<double>& xyz) {
 // With `third` (the third vertex of the face on each rim edge), Liepa's weight
 // (the largest dihedral angle with those faces first, then the area) keeps the
 // cap from folding back onto the faces; without it, the least area.
-std::vector<std::int64_t> fill_hole(const std::vector<double>& xyz,
-                                    const std::vector<double>& third) {
+std::vector<std::int64_t> fill_hole(std::vector<double> xyz, std::vector<double> third) {
+  // Liepa's weights (dihedral angles, then areas) compare the same in an
+  // exactly scaled frame, where CGAL's constructions do not overflow.
+  const double scale = power_of_two_scale(xyz);
+  for (double& x : xyz) x *= scale;
+  for (double& x : third) x *= scale;
   const std::vector<K::Point_3> rim = points_of(xyz);
   std::vector<CGAL::Triple<int, int, int>> tri;
   if (third.empty())

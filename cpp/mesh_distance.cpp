@@ -1,6 +1,7 @@
 // Distance, side and winding-number queries against a triangle mesh (see
 // mesh_distance.hpp).
 #include "mesh_distance.hpp"
+#include "power_scale.hpp"
 
 #include "on_cores.hpp"
 
@@ -73,6 +74,7 @@ void check_finite(const double* p, std::size_t k) {
 }  // namespace
 
 struct MeshDistance::Impl {
+  double scale = 1.0;               // xyz = the user's coordinates times scale (a power of 2)
   std::vector<double> xyz;          // n x 3
   std::vector<std::int64_t> tri;    // m x 3
   Soup soup;                        // non-degenerate faces
@@ -335,6 +337,9 @@ MeshDistance::MeshDistance(const double* vertices, std::size_t n, const std::int
   s.tri.assign(faces, faces + 3 * m);
   for (double x : s.xyz)
     if (!std::isfinite(x)) throw std::invalid_argument("the mesh has a non-finite vertex coordinate");
+  s.scale = power_of_two_scale(s.xyz);
+  if (s.scale != 1.0)
+    for (double& x : s.xyz) x *= s.scale;
   for (std::int64_t i : s.tri)
     if (i < 0 || static_cast<std::size_t>(i) >= n)
       throw std::invalid_argument("a face refers to a vertex index out of range");
@@ -379,20 +384,24 @@ namespace {
 constexpr std::size_t kBlock = 512;
 }  // namespace
 
-void MeshDistance::query(const double* p, std::size_t k, double* dist, double* closest,
+void MeshDistance::query(const double* p_user, std::size_t k, double* dist, double* closest,
                          std::int64_t* face, std::int8_t* side) const {
   const Impl& s = *impl_;
-  check_finite(p, k);
+  check_finite(p_user, k);
+  std::vector<double> store;
+  const double* p = scaled(p_user, k, s.scale, store);
+  check_finite(p, k);  // a far point of a tiny mesh, scaled up
+  const double back = 1.0 / s.scale;  // exact: a power of two
   const std::size_t blocks = (k + kBlock - 1) / kBlock;
   for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
     for (std::size_t i = blk * kBlock; i < std::min(k, (blk + 1) * kBlock); ++i) {
       const Point q(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
       const auto hit = s.tree.closest_point_and_primitive(q);
       const Point& c = hit.first;
-      closest[3 * i] = c.x();
-      closest[3 * i + 1] = c.y();
-      closest[3 * i + 2] = c.z();
-      dist[i] = std::sqrt(CGAL::squared_distance(q, c));
+      closest[3 * i] = c.x() * back;
+      closest[3 * i + 1] = c.y() * back;
+      closest[3 * i + 2] = c.z() * back;
+      dist[i] = std::sqrt(CGAL::squared_distance(q, c)) * back;
       const auto f = s.soup_face[static_cast<std::size_t>(hit.second - s.soup.cbegin())];
       face[i] = f;
       if (s.pseudo) {
@@ -407,10 +416,12 @@ void MeshDistance::query(const double* p, std::size_t k, double* dist, double* c
   });
 }
 
-void MeshDistance::side(const double* p, std::size_t k, std::int8_t* side) const {
+void MeshDistance::side(const double* p_user, std::size_t k, std::int8_t* side) const {
   const Impl& s = *impl_;
   if (!s.side) throw std::logic_error("this mesh has no side oracle: " + s.side_failure);
-  check_finite(p, k);
+  check_finite(p_user, k);
+  std::vector<double> store;
+  const double* p = scaled(p_user, k, s.scale, store);
   const std::size_t blocks = (k + kBlock - 1) / kBlock;
   for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
     for (std::size_t i = blk * kBlock; i < std::min(k, (blk + 1) * kBlock); ++i) {
@@ -420,12 +431,15 @@ void MeshDistance::side(const double* p, std::size_t k, std::int8_t* side) const
   });
 }
 
-void MeshDistance::winding_number(const double* p, std::size_t k, double* w, double beta) const {
+void MeshDistance::winding_number(const double* p_user, std::size_t k, double* w,
+                                  double beta) const {
   if (impl_->nodes.empty())
     throw std::logic_error("this MeshDistance was built without its winding-number hierarchy");
   if (!(beta > 1.0) || !std::isfinite(beta))
     throw std::invalid_argument("beta must be finite and greater than 1");
-  check_finite(p, k);
+  check_finite(p_user, k);
+  std::vector<double> store;
+  const double* p = scaled(p_user, k, impl_->scale, store);
   const std::size_t blocks = (k + kBlock - 1) / kBlock;
   for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
     for (std::size_t i = blk * kBlock; i < std::min(k, (blk + 1) * kBlock); ++i)
@@ -433,10 +447,13 @@ void MeshDistance::winding_number(const double* p, std::size_t k, double* w, dou
   });
 }
 
-void MeshDistance::segment_hits(const double* ab, std::size_t k, std::vector<std::int64_t>& segment,
-                                std::vector<double>& t, std::vector<std::int64_t>& face) const {
+void MeshDistance::segment_hits(const double* ab_user, std::size_t k,
+                                std::vector<std::int64_t>& segment, std::vector<double>& t,
+                                std::vector<std::int64_t>& face) const {
   const Impl& s = *impl_;
-  check_finite(ab, 2 * k);
+  check_finite(ab_user, 2 * k);
+  std::vector<double> store;
+  const double* ab = scaled(ab_user, 2 * k, s.scale, store);  // t is the same in either frame
   struct Hit {
     std::int64_t segment;
     double t;

@@ -3,6 +3,9 @@ self-intersecting input, and the time limit's message."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import rdmesh
@@ -628,3 +631,78 @@ def test_every_component_of_a_closed_mesh_gets_a_seed():
         find_components(rdmesh.MeshSurface(overlapping_spheres()), np.random.default_rng(0))
         is None
     )
+
+
+BOX_V = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+BOX_F = np.array(
+    [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+     [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]
+)  # fmt: skip
+
+
+def _run_with_timeout(code: str) -> subprocess.CompletedProcess:
+    # A subprocess: a regression here hung the interpreter or killed it (SIGFPE).
+    return subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120
+    )
+
+
+@pytest.mark.parametrize("exponent", [66, 460, -66])
+def test_mesh_queries_scale_exactly_with_huge_and_tiny_coordinates(exponent):
+    # CGAL's ray casting retried forever at a box of 1e20 (its random directions
+    # vanish next to the coordinates), and its exact fallback raised SIGFPE at
+    # 1e140 (NaN from overflow); the queries now run in an exactly scaled frame.
+    code = f"""
+import subprocess
+import sys
+
+import numpy as np
+from rdmesh.core import MeshDistance
+BOX_V, BOX_F = np.array({BOX_V.tolist()}), np.array({BOX_F.tolist()})
+s = 2.0 ** {exponent}
+plain, big = MeshDistance(BOX_V, BOX_F, side=True), MeshDistance(BOX_V * s, BOX_F, side=True)
+p = np.random.default_rng(0).uniform(-1, 1, (200, 3))
+d0, c0, f0, s0 = plain.query(p)
+d1, c1, f1, s1 = big.query(p * s)
+assert np.array_equal(d1, d0 * s) and np.array_equal(c1, c0 * s)
+assert np.array_equal(f1, f0) and np.array_equal(s1, s0)
+seg = np.stack([p[:100], p[100:]], axis=1)
+for a, b in zip(plain.segment_hits(seg), big.segment_hits(seg * s)):
+    assert np.array_equal(a, b, equal_nan=True)
+assert np.array_equal(plain.winding_number(p), big.winding_number(p * s))
+print("ok")
+"""
+    res = _run_with_timeout(code)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.split() == ["ok"]
+
+
+def test_a_huge_box_is_meshed_closed():
+    code = f"""
+import numpy as np, rdmesh, trimesh
+BOX_V, BOX_F = np.array({BOX_V.tolist()}), np.array({BOX_F.tolist()})
+m = rdmesh.mesh_surface(rdmesh.MeshSurface((BOX_V * 1e20, BOX_F)), radius_bound=0.2e20)
+t = trimesh.Trimesh(m.vertices, m.faces, process=False)
+assert t.is_watertight and t.euler_number == 2 and m.complete
+assert np.abs(np.abs(m.vertices).max() - 0.5e20) < 1e6
+print("ok")
+"""
+    res = _run_with_timeout(code)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.split() == ["ok"]
+
+
+@pytest.mark.parametrize(
+    "scale, offset, words",
+    [(1e60, 0.0, "bounding radius"), (1e-13, 0.0, "bounding radius"), (1.0, 1e12, "translate")],
+)
+def test_coordinates_too_large_small_or_far_are_refused(scale, offset, words):
+    # A box 1e12 radii from the origin kept 4 digits of its size (its topology
+    # tests failed); at 1e60 the mesh lost half its vertices; at 1e-16 no surface
+    # was found.
+    with pytest.raises(rdmesh.MeshInputError, match=words):
+        rdmesh.MeshSurface((BOX_V * scale + offset, BOX_F))
+    with pytest.raises(ValueError, match=words):
+        rdmesh.ImplicitSurface(
+            lambda p: np.linalg.norm(p - offset, axis=1) - scale, ((offset,) * 3, 2 * scale)
+        )

@@ -64,7 +64,42 @@ def sphere(bounding_sphere: Any) -> tuple[np.ndarray, float]:
         raise ValueError(f"bounding sphere radius must be a number, got {radius!r}") from None
     if not np.isfinite(r) or r <= 0:
         raise ValueError(f"bounding sphere radius must be positive and finite, got {radius!r}")
+    problem = scale_problem(c, r)
+    if problem:
+        raise ValueError(problem)
     return c, r
+
+
+#: Bounding radii rdmesh meshes at: lengths are squared and multiplied (the
+#: Delaunay core's predicates, areas, distances), and outside this range
+#: they underflow or overflow (measured: a cube meshes from 1e-13 to 1e50).
+RADIUS_RANGE = (1e-10, 1e40)
+#: A bounding sphere's centre at most this many radii from the origin: a
+#: double's last digit there (2.2e-16 of the distance) stays 45 times below
+#: the spacing floor (1e-6 R). A cube 1e12 radii out kept 4 digits of its size.
+MAX_OFFSET = 1e8
+
+
+def scale_problem(centre: np.ndarray, radius: float) -> str:
+    """Why a surface in the bounding sphere ``(centre, radius)`` cannot be
+    meshed as it stands (too small, too large or too far from the origin), or
+    ``""``."""
+    lo, hi = RADIUS_RANGE
+    if not lo <= radius <= hi:
+        return (
+            f"the bounding radius {radius:.3g} is outside [{lo:g}, {hi:g}]: scale the "
+            "coordinates into that range (lengths are squared and multiplied while "
+            "meshing and would underflow or overflow)"
+        )
+    far = float(np.max(np.abs(centre)))
+    if far > MAX_OFFSET * radius:
+        return (
+            f"the surface lies {far / radius:.3g} bounding radii from the origin (at most "
+            f"{MAX_OFFSET:g}): coordinates that far carry too few digits for its size; "
+            f"translate it towards the origin (subtract its centre "
+            f"{np.round(centre, 3).tolist()})"
+        )
+    return ""
 
 
 def box_in_sphere(box: Any, centre: np.ndarray, radius: float, name: str) -> np.ndarray:

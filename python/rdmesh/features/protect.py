@@ -26,10 +26,10 @@ Sizes. The spacing ``h`` of the centres along a curve is at most:
 differ by a bounded ratio), from at most twice an end corner's radius at the
 corner (Mesh_3 grades a curve's balls between its end balls' sizes). Corner
 balls have radius at most half the spacing there; an open curve's first ball
-sits a quarter spacing beyond the corner ball. A ball's radius is 0.9 times its smaller spacing to a neighbour and at
-most 0.9 h at its centre. The invariants are then checked exactly on the
-balls and repaired as Mesh_3's ``refine_balls`` and
-``check_and_repopulate_edges`` do: balls that meet but are not consecutive
+sits a quarter spacing beyond the corner ball. A ball's radius is 0.9 times
+its smaller spacing to a neighbour and at most 0.9 h at its centre. The
+invariants are then checked exactly on the balls and repaired as Mesh_3's
+``refine_balls`` and ``check_and_repopulate_edges`` do: balls that meet but are not consecutive
 shrink to their distance / 2.1, and new balls fill a stretch that consecutive
 balls no longer cover (one ball where the stretch is shorter than the
 spacing). Consecutive balls that overlap by less than :data:`LENS` are mended

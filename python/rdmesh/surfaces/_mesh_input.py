@@ -21,6 +21,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .._errors import MeshInputError
+from .._validate import scale_problem
 from ..core import MeshDistance
 from ..features.sharp_edges import sharp_edges
 
@@ -204,11 +205,22 @@ def signed_volume(v: np.ndarray, f: np.ndarray) -> float:
 
 def bounding_sphere(v: np.ndarray) -> tuple[np.ndarray, float]:
     """``(centre, radius)``: the centre of the bounding box of the vertices ``(n, 3)``,
-    and ``SPHERE_MARGIN`` times the largest distance of a vertex from it."""
+    and ``SPHERE_MARGIN`` times the largest distance of a vertex from it.
+
+    Raises
+    ------
+    rdmesh.MeshInputError
+        The mesh is too small, too large or too far from the origin to mesh
+        (:func:`rdmesh._validate.scale_problem`).
+    """
     lo, hi = v.min(axis=0), v.max(axis=0)
     centre = 0.5 * (lo + hi)
     extent = float(np.sqrt(((v - centre) ** 2).sum(axis=1).max()))
-    return centre, SPHERE_MARGIN * max(extent, 1e-12 * (1 + float(np.abs(centre).max())))
+    radius = SPHERE_MARGIN * max(extent, 1e-12 * (1 + float(np.abs(centre).max())))
+    problem = scale_problem(centre, radius)
+    if problem:
+        raise MeshInputError(problem)
+    return centre, radius
 
 
 def fold_edges(f: np.ndarray, normals: np.ndarray) -> np.ndarray:
