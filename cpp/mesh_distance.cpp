@@ -65,11 +65,15 @@ constexpr std::int32_t kLeafSize = 8;
 
 // Queries at non-finite points would send CGAL's ray casting into endless
 // retries; refuse them up front.
-void check_finite(const double* p, std::size_t k) {
+void check_finite(const double* p, std::size_t k, const char* where = "") {
   for (std::size_t i = 0; i < 3 * k; ++i)
     if (!std::isfinite(p[i]))
-      throw std::invalid_argument("query point " + std::to_string(i / 3) + " is not finite");
+      throw std::invalid_argument("query point " + std::to_string(i / 3) + " is not finite" +
+                                  where);
 }
+
+// The second check, in the mesh's scaled frame (power_scale.hpp).
+constexpr const char* kScaled = " scaled to the mesh's size (it is too far from so small a mesh)";
 
 }  // namespace
 
@@ -390,7 +394,7 @@ void MeshDistance::query(const double* p_user, std::size_t k, double* dist, doub
   check_finite(p_user, k);
   std::vector<double> store;
   const double* p = scaled(p_user, k, s.scale, store);
-  check_finite(p, k);  // a far point of a tiny mesh, scaled up
+  check_finite(p, k, kScaled);  // a far point of a tiny mesh, scaled up, may overflow
   const double back = 1.0 / s.scale;  // exact: a power of two
   const std::size_t blocks = (k + kBlock - 1) / kBlock;
   for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
@@ -422,6 +426,7 @@ void MeshDistance::side(const double* p_user, std::size_t k, std::int8_t* side) 
   check_finite(p_user, k);
   std::vector<double> store;
   const double* p = scaled(p_user, k, s.scale, store);
+  check_finite(p, k, kScaled);
   const std::size_t blocks = (k + kBlock - 1) / kBlock;
   for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
     for (std::size_t i = blk * kBlock; i < std::min(k, (blk + 1) * kBlock); ++i) {
@@ -440,6 +445,7 @@ void MeshDistance::winding_number(const double* p_user, std::size_t k, double* w
   check_finite(p_user, k);
   std::vector<double> store;
   const double* p = scaled(p_user, k, impl_->scale, store);
+  check_finite(p, k, kScaled);
   const std::size_t blocks = (k + kBlock - 1) / kBlock;
   for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
     for (std::size_t i = blk * kBlock; i < std::min(k, (blk + 1) * kBlock); ++i)
@@ -454,6 +460,7 @@ void MeshDistance::segment_hits(const double* ab_user, std::size_t k,
   check_finite(ab_user, 2 * k);
   std::vector<double> store;
   const double* ab = scaled(ab_user, 2 * k, s.scale, store);  // t is the same in either frame
+  check_finite(ab, 2 * k, kScaled);
   struct Hit {
     std::int64_t segment;
     double t;

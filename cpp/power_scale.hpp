@@ -26,8 +26,10 @@ inline double power_of_two_scale(const std::vector<double>& xyz) {
 }
 
 // p (k points, or k segments as 2k points) in the mesh's scaled frame: p
-// itself when the scale is 1, else a scaled copy in `store`.
-inline const double* scaled(const double* p, std::size_t k, double scale, std::vector<double>& store) {
+// itself when the scale is 1, else a scaled copy in `store` (which may
+// overflow: check it is finite before CGAL sees it).
+inline const double* scaled(const double* p, std::size_t k, double scale,
+                            std::vector<double>& store) {
   if (scale == 1.0) return p;
   store.assign(p, p + 3 * k);
   for (double& x : store) x *= scale;

@@ -670,6 +670,13 @@ seg = np.stack([p[:100], p[100:]], axis=1)
 for a, b in zip(plain.segment_hits(seg), big.segment_hits(seg * s)):
     assert np.array_equal(a, b, equal_nan=True)
 assert np.array_equal(plain.winding_number(p), big.winding_number(p * s))
+if s < 1:  # a point far from a tiny mesh overflows when scaled up: refused, not cast
+    try:
+        big.side(np.array([[1e300, 0.0, 0.0]]))
+    except ValueError as exc:
+        assert "scaled to the mesh's size" in str(exc)
+    else:
+        raise AssertionError("no error")
 print("ok")
 """
     res = _run_with_timeout(code)
