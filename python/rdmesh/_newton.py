@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._tol import TINY
-
 
 def damped_step(
     x: np.ndarray, step: np.ndarray, cap: float | np.ndarray
@@ -30,5 +28,8 @@ def damped_step(
     length : (n,) the raw steps' lengths (a convergence measure).
     """
     length = np.linalg.norm(step, axis=1)
-    scale = np.minimum(1.0, cap / np.maximum(length, TINY))
+    # Only steps longer than the cap are shortened (cap / TINY overflowed at R = 1e10).
+    long = length > cap
+    scale = np.ones(len(length))
+    scale[long] = np.broadcast_to(cap, length.shape)[long] / length[long]
     return x + step * scale[:, None], length
