@@ -101,6 +101,15 @@ struct MeshDistance::Impl {
 
   const double* vertex(std::int64_t i) const { return &xyz[3 * static_cast<std::size_t>(i)]; }
 
+  // k query points p, checked finite, in the mesh's scaled frame (a copy in
+  // `store` when scaled, checked again: a far point of a tiny mesh overflows).
+  const double* in_frame(const double* p, std::size_t k, std::vector<double>& store) const {
+    check_finite(p, k);
+    const double* q = scaled(p, k, scale, store);
+    if (q != p) check_finite(q, k, kScaled);
+    return q;
+  }
+
   double solid_angle(std::int64_t f, const double* p) const {
     const Vec a = sub(vertex(tri[3 * f]), p), b = sub(vertex(tri[3 * f + 1]), p),
               c = sub(vertex(tri[3 * f + 2]), p);
@@ -391,10 +400,8 @@ constexpr std::size_t kBlock = 512;
 void MeshDistance::query(const double* p_user, std::size_t k, double* dist, double* closest,
                          std::int64_t* face, std::int8_t* side) const {
   const Impl& s = *impl_;
-  check_finite(p_user, k);
   std::vector<double> store;
-  const double* p = scaled(p_user, k, s.scale, store);
-  check_finite(p, k, kScaled);  // a far point of a tiny mesh, scaled up, may overflow
+  const double* p = s.in_frame(p_user, k, store);
   const double back = 1.0 / s.scale;  // exact: a power of two
   const std::size_t blocks = (k + kBlock - 1) / kBlock;
   for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
@@ -423,10 +430,8 @@ void MeshDistance::query(const double* p_user, std::size_t k, double* dist, doub
 void MeshDistance::side(const double* p_user, std::size_t k, std::int8_t* side) const {
   const Impl& s = *impl_;
   if (!s.side) throw std::logic_error("this mesh has no side oracle: " + s.side_failure);
-  check_finite(p_user, k);
   std::vector<double> store;
-  const double* p = scaled(p_user, k, s.scale, store);
-  check_finite(p, k, kScaled);
+  const double* p = s.in_frame(p_user, k, store);
   const std::size_t blocks = (k + kBlock - 1) / kBlock;
   for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
     for (std::size_t i = blk * kBlock; i < std::min(k, (blk + 1) * kBlock); ++i) {
@@ -442,10 +447,8 @@ void MeshDistance::winding_number(const double* p_user, std::size_t k, double* w
     throw std::logic_error("this MeshDistance was built without its winding-number hierarchy");
   if (!(beta > 1.0) || !std::isfinite(beta))
     throw std::invalid_argument("beta must be finite and greater than 1");
-  check_finite(p_user, k);
   std::vector<double> store;
-  const double* p = scaled(p_user, k, impl_->scale, store);
-  check_finite(p, k, kScaled);
+  const double* p = impl_->in_frame(p_user, k, store);
   const std::size_t blocks = (k + kBlock - 1) / kBlock;
   for_each_on_cores(blocks, [] { return 0; }, [&](int, std::size_t blk) {
     for (std::size_t i = blk * kBlock; i < std::min(k, (blk + 1) * kBlock); ++i)
@@ -457,10 +460,8 @@ void MeshDistance::segment_hits(const double* ab_user, std::size_t k,
                                 std::vector<std::int64_t>& segment, std::vector<double>& t,
                                 std::vector<std::int64_t>& face) const {
   const Impl& s = *impl_;
-  check_finite(ab_user, 2 * k);
   std::vector<double> store;
-  const double* ab = scaled(ab_user, 2 * k, s.scale, store);  // t is the same in either frame
-  check_finite(ab, 2 * k, kScaled);
+  const double* ab = s.in_frame(ab_user, 2 * k, store);  // t is the same in either frame
   struct Hit {
     std::int64_t segment;
     double t;

@@ -6,7 +6,6 @@ import ast
 import math
 import os
 import subprocess
-import sys
 import textwrap
 import threading
 from fractions import Fraction
@@ -15,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rdmesh
+from child import run_python
 from rdmesh.core import _rdt
 
 try:  # not in the test extras (yet): only the property-based test needs it
@@ -141,9 +141,7 @@ HAMMER = textwrap.dedent(
 def _run(script: str, **names) -> subprocess.CompletedProcess:
     for k, v in names.items():
         script = script.replace(k, repr(v))
-    return subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, timeout=300
-    )
+    return run_python(script)
 
 
 def test_two_threads_share_one_core():

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 import rdmesh
+from child import run_python
 from rdmesh import ImplicitSurface, RdmeshError
 from rdmesh.surfaces import pointwise
 from rdmesh.surfaces.expressions import (
@@ -160,7 +159,7 @@ def test_ieee_arithmetic_no_exceptions_no_hangs():
         f"import numpy as np; from {parse_expression.__module__} import parse_expression; "
         "print(parse_expression('9**9**9**9')(np.zeros((3, 3))).tolist())"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    out = run_python(code, timeout=600)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[inf, inf, inf]"
 

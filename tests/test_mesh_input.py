@@ -3,12 +3,10 @@ self-intersecting input, and the time limit's message."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 import rdmesh
+from child import run_python
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from rdmesh.core import MeshDistance
@@ -640,22 +638,12 @@ BOX_F = np.array(
 )  # fmt: skip
 
 
-def _run_with_timeout(code: str) -> subprocess.CompletedProcess:
-    # A subprocess: a regression here hung the interpreter or killed it (SIGFPE).
-    return subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120
-    )
-
-
 @pytest.mark.parametrize("exponent", [66, 460, -66])
 def test_mesh_queries_scale_exactly_with_huge_and_tiny_coordinates(exponent):
     # CGAL's ray casting retried forever at a box of 1e20 (its random directions
     # vanish next to the coordinates), and its exact fallback raised SIGFPE at
     # 1e140 (NaN from overflow); the queries now run in an exactly scaled frame.
     code = f"""
-import subprocess
-import sys
-
 import numpy as np
 from rdmesh.core import MeshDistance
 BOX_V, BOX_F = np.array({BOX_V.tolist()}), np.array({BOX_F.tolist()})
@@ -679,7 +667,7 @@ if s < 1:  # a point far from a tiny mesh overflows when scaled up: refused, not
         raise AssertionError("no error")
 print("ok")
 """
-    res = _run_with_timeout(code)
+    res = run_python(code, timeout=120)
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stdout.split() == ["ok"]
 
@@ -694,7 +682,7 @@ assert t.is_watertight and t.euler_number == 2 and m.complete
 assert np.abs(np.abs(m.vertices).max() - 0.5e20) < 1e6
 print("ok")
 """
-    res = _run_with_timeout(code)
+    res = run_python(code, timeout=120)
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stdout.split() == ["ok"]
 

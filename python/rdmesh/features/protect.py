@@ -409,9 +409,7 @@ def _move_towards(balls, st, graph, m: int, other: int, r, d: float) -> bool:
     chain = balls.chains[curve]
     pos = j if c.closed else j + 1
     forward = chain[pos + 1] == other
-    behind = chain[pos - 1] if pos > 0 else chain[-2]
-    if not forward:
-        behind = chain[pos + 1]
+    behind = chain[pos - 1 if pos > 0 else -2] if forward else chain[pos + 1]
     s_new = st.s[curve][j] + (d - want if forward else want - d)
     if c.closed:
         s_new = float(np.mod(s_new, c.length))
