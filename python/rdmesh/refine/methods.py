@@ -354,7 +354,17 @@ def _scan(
     or without ``certify``), the proven component search's points, which with
     the grid's seeds put one on every component when it is proven
     (:mod:`rdmesh.sampling.components`)."""
-    scan = grid_scan(surface, rng, resolution, spacing=spacing, clipped=clipped)
+    try:
+        scan = grid_scan(surface, rng, resolution, spacing=spacing, clipped=clipped)
+    except EmptySurfaceError:
+        # Components smaller than the grid: the proven search may still find them.
+        found = find_components(surface, rng, clipped, None)
+        if found is None or len(found.points) == 0:
+            raise
+        log.info("discovery: the grid found no surface, the component search %d seeds",
+                 len(found.points))  # fmt: skip
+        pts = found.points
+        return GridScan(pts, pts, 2.0 * surface.radius / resolution), found
     found = find_components(surface, rng, clipped, scan.seeds)
     if found is None or len(found.points) == 0:
         return scan, found

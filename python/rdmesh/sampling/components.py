@@ -3,7 +3,7 @@
 Expression surfaces get the interval subdivision
 (:mod:`rdmesh.sampling.discovery`), closed volumes the search on their
 interpolant (:mod:`rdmesh.sampling.volume_components`), closed mesh inputs
-that do not intersect themselves a vertex of each of their components
+that do not intersect themselves up to six vertices of each of their components
 (:func:`mesh_components`); other surfaces none (their seeding is the grid
 scan's, sampled).
 """
@@ -58,7 +58,7 @@ def find_components(
 
 
 def mesh_components(surface, seeds: np.ndarray | None = None) -> Discovery:
-    """A vertex of each component of a closed mesh input that does not
+    """Vertices of each component of a closed mesh input that does not
     intersect itself (:attr:`~rdmesh.MeshSurface.topology_known`) and that
     none of ``seeds`` (points on the surface) lies on: each input component
     is a component of the surface, and its vertices lie on it (``f = 0``), so
@@ -66,20 +66,34 @@ def mesh_components(surface, seeds: np.ndarray | None = None) -> Discovery:
     from .._mesh_components import labelled_components
 
     count, _, label = labelled_components(surface.faces, len(surface.vertices))
-    used = np.flatnonzero(label >= 0)
-    first = used[np.unique(label[used], return_index=True)[1]]
+    seeded = np.zeros(count, bool)
     if seeds is not None and len(seeds):
         # input_components numbers the components as labelled_components does.
-        seeded = np.zeros(count, bool)
         seeded[surface.input_components(np.asarray(seeds, dtype=float).reshape(-1, 3))] = True
-        first = first[~seeded[label[first]]]
     return Discovery(
-        points=surface.vertices[first],
+        points=surface.vertices[_extremes(surface.vertices, label, ~seeded)],
         proven=True,
         unresolved=np.zeros((0, 3)),
         boxes=0,
         side=0.0,
         evaluations=0,
-        basis="the grid's seeds, and a vertex of each component of the closed input mesh (which "
+        basis="the grid's seeds, and vertices of each component of the closed input mesh (which "
         f"does not intersect itself) that they miss: a seed on every component ({count})",
     )
+
+
+def _extremes(vertices: np.ndarray, label: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """Vertex ids: the lowest and highest vertex of each ``wanted`` component
+    along each axis (up to six, spread over it, so that its seeds alone span
+    restricted facets)."""
+    used = np.flatnonzero((label >= 0) & wanted[np.maximum(label, 0)])
+    if len(used) == 0:
+        return np.zeros(0, np.int64)
+    out = []
+    for axis in range(3):
+        order = used[np.lexsort((vertices[used, axis], label[used]))]
+        lab = label[order]
+        starts = np.flatnonzero(np.r_[True, lab[1:] != lab[:-1]])
+        ends = np.r_[starts[1:], len(order)] - 1
+        out += [order[starts], order[ends]]
+    return np.unique(np.concatenate(out))

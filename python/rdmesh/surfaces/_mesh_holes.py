@@ -22,6 +22,7 @@ from .._vectors import row_norms
 from ..core import _rdt as core
 from ..features.sharp_edges import chain_edges
 from ._mesh_input import signed_volume
+from ._mesh_repair import FLAT
 
 #: Where the feature curves come from: the rims (boundaries of a mesh with holes kept).
 RIM_SOURCE = "hole rim"
@@ -250,12 +251,6 @@ def with_caps(
     if signed_volume(v, f) < 0:
         f, normals = f[:, ::-1].copy(), -normals
     return f, norms, normals
-
-
-#: A mesh closed by caps that encloses less than this share of the volume of a
-#: ball of its area (``36 pi V^2 / A^3``) is flat: too open to have an inside
-#: (a plate 1000 times wider than thick: 1.4e-5).
-FLAT = 1e-6
 
 
 def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:

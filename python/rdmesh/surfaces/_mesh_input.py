@@ -2,7 +2,8 @@
 triangle mesh, and what can be told about it before meshing.
 
 A mesh is read as ``(vertices, faces)`` (:func:`as_arrays`), its equal vertices
-merged, degenerate faces dropped and pinched vertices split (:func:`clean`), and
+merged, degenerate and repeated faces dropped, faces turned to agree with their
+neighbours (:mod:`._mesh_repair`) and pinched vertices split (:func:`clean`), and
 oriented so that its signed volume is positive (:func:`oriented_mesh`). Then:
 its bounding sphere, its folds (:func:`fold_edges`), whether the C++ side test
 applies (:func:`is_closed_oriented`), how ambiguous the winding number is next
@@ -24,6 +25,7 @@ from .._errors import MeshInputError
 from .._validate import scale_problem
 from ..core import MeshDistance
 from ..features.sharp_edges import sharp_edges
+from ._mesh_repair import check_volumes, coherently_oriented, without_duplicates
 
 log = logging.getLogger("rdmesh")
 
@@ -54,6 +56,8 @@ def as_arrays(mesh: Any) -> tuple[np.ndarray, np.ndarray]:
             "mesh must be a trimesh.Trimesh or a (vertices, faces) pair, "
             f"got {type(mesh).__name__}"
         )
+    if np.iscomplexobj(vertices):
+        raise MeshInputError("mesh vertices must be real numbers, got complex values")
     try:
         v = np.array(vertices, dtype=np.float64)
     except (TypeError, ValueError):
@@ -91,14 +95,18 @@ def as_arrays(mesh: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 def clean(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Merge equal vertices, drop faces that repeat a vertex and unused vertices,
-    and split pinched vertices (:func:`split_pinches`)."""
+    """Merge equal vertices, drop faces that repeat a vertex, repeated faces and
+    unused vertices, turn faces to agree with their neighbours, and split
+    pinched vertices (:func:`split_pinches`)."""
     v, inverse = _unique_points(v)
     f = inverse[f]
     keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
     f = f[keep]
     if len(f) == 0:
         raise MeshInputError("every face of the mesh has zero area (repeated vertices)")
+    f = coherently_oriented(without_duplicates(f))
+    if len(f) == 0:
+        raise MeshInputError("every face of the mesh is listed once each way: they cancel out")
     used, f = np.unique(f, return_inverse=True)
     return split_pinches(v[used], f.reshape(-1, 3).astype(np.int64))
 
@@ -195,6 +203,8 @@ def oriented_mesh(mesh: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
         f = f[:, ::-1].copy()
         area = -area
     norms = np.linalg.norm(area, axis=1)
+    if is_closed_oriented(f):
+        check_volumes(v, f, norms)
     return v, f, norms, area / np.where(norms > 0, norms, 1.0)[:, None]
 
 
