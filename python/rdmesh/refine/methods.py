@@ -30,7 +30,7 @@ from ..sampling.components import find_components
 from ..sampling.critical import CriticalPoints, critical_points
 from ..sampling.discovery import Discovery
 from ..sampling.domain import clip_box, depth, on_clip_surface
-from ..sampling.grid import GridScan, fibonacci_sphere, grid_scan
+from ..sampling.grid import GridScan, fibonacci_sphere, grid_scan, seeds_around
 from ..sampling.probes import Probes, surface_probes, unit_normals
 from ..sampling.screen import SlopeField
 from ..surfaces.oracle import ImplicitSurface
@@ -363,8 +363,9 @@ def _scan(
             raise
         log.info("discovery: the grid found no surface, the component search %d seeds",
                  len(found.points))  # fmt: skip
-        pts = found.points
-        return GridScan(pts, pts, 2.0 * surface.radius / resolution), found
+        h = 2.0 * surface.radius / resolution
+        pts = np.concatenate([found.points, seeds_around(surface, found.points, h)])
+        return GridScan(pts, pts, h), found
     found = find_components(surface, rng, clipped, scan.seeds)
     if found is None or len(found.points) == 0:
         return scan, found

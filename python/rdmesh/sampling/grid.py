@@ -176,6 +176,9 @@ def grid_scan(
     lab = labels[tuple(cell.T)]
     # Thin large bands to mutually distant points; keep small bands whole.
     spacing = 3.0 * h if spacing is None else max(spacing, h)
+    # Not so far apart that a band keeps fewer than the four points a
+    # tetrahedron needs (a size bound larger than the surface).
+    spacing = min(spacing, MAX_SEED_SPACING * R)
     keep = np.zeros(len(points), bool)
     keep[core.select_independent(points, np.full(len(points), spacing))] = True
     small = np.bincount(lab, minlength=n_labels + 1) <= SMALL_COMPONENT
@@ -194,6 +197,9 @@ def grid_scan(
         slopes = SlopeField.proven(lower, h, c0, rot, R + h - shift, float(lipschitz))
     return GridScan(out, points, h, slopes)
 
+
+#: Seeds are thinned to at most this fraction of the bounding radius apart.
+MAX_SEED_SPACING = 0.5
 
 #: Stride of the coarse grid of :func:`_lipschitz_grid`.
 COARSE_STRIDE = 4
@@ -322,3 +328,32 @@ def check_sphere_near(surface: ImplicitSurface, samples: np.ndarray) -> None:
         step[moving] = -(f[moving] / gn[moving])[:, None] * (gt[moving] / gn[moving, None])
         x, _ = damped_step(x, step, 0.05 * R)
         x = c0 + R * (x - c0) / np.linalg.norm(x - c0, axis=1)[:, None]
+
+
+def seeds_around(surface: ImplicitSurface, points: np.ndarray, reach: float) -> np.ndarray:
+    """Crossings of the surface on segments of length ``reach`` from each of
+    ``points`` towards the 26 neighbours of a grid node: more seeds beside a
+    component's only point, where the grid found none (a tetrahedron needs
+    four)."""
+    unit = (-1, 0, 1)
+    steps = np.array([(i, j, k) for i in unit for j in unit for k in unit if i or j or k], float)
+    steps /= np.linalg.norm(steps, axis=1)[:, None]
+    points = np.asarray(points, float).reshape(-1, 3)
+    origin = np.repeat(points, len(steps), axis=0)
+    direction = np.ascontiguousarray(np.tile(steps, (len(points), 1)))
+    _, found = crossings_along_segments(
+        surface, origin, direction, np.full(len(origin), reach), AROUND_SAMPLES,
+        SHOT_ATOL * surface.radius,
+    )  # fmt: skip
+    # Not next to the points or to each other (on the surface, a segment's
+    # start is a crossing): near-duplicate samples. The points go first.
+    gap = AROUND_GAP * reach
+    both = np.concatenate([points, found])
+    radii = np.r_[np.full(len(points), 2.0 * gap), np.full(len(found), gap)]
+    keep = core.select_independent(both, radii)
+    return both[np.sort(keep[keep >= len(points)])]
+
+
+#: Samples along each segment of :func:`seeds_around`, and the smallest gap
+#: between its seeds and to the points they surround (times ``reach``).
+AROUND_SAMPLES, AROUND_GAP = 8, 1e-3

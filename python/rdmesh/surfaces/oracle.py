@@ -239,10 +239,15 @@ def _evaluate(surface: ImplicitSurface, pts: np.ndarray) -> np.ndarray:
     n = len(pts)
     with surface._lock:
         surface.evaluations += n
+    # Read-only: an f that wrote into its argument changed rdmesh's own points.
+    view = pts.view()
+    view.flags.writeable = False
     try:
-        out = surface.f(pts)
+        out = surface.f(view)
     except Exception as exc:  # noqa: BLE001 - user code may raise anything
         raise OracleError(f"the surface function raised {type(exc).__name__}: {exc}") from exc
+    if np.iscomplexobj(out):
+        raise OracleError("the surface function returned complex numbers; f must be real")
     try:
         values = np.asarray(out, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -284,8 +289,10 @@ def _evaluate_gradient(surface: ImplicitSurface, points: np.ndarray, order: int)
     if surface.gradient is not None:
         with surface._lock:
             surface.evaluations += n
+        view = pts.view()
+        view.flags.writeable = False
         try:
-            g = np.asarray(surface.gradient(pts), dtype=np.float64)
+            g = np.asarray(surface.gradient(view), dtype=np.float64)
         except Exception as exc:  # noqa: BLE001
             raise OracleError(f"the gradient function raised {type(exc).__name__}: {exc}") from exc
         if g.shape != (n, 3) or not np.all(np.isfinite(g)):

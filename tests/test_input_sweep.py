@@ -1,5 +1,6 @@
-"""Mesh inputs with repeated or turned faces, flat components, and surfaces the
-seeding grid cannot see (issue 30's input sweep)."""
+"""Issue 30's sweep of odd input: mesh inputs with repeated or turned faces or
+flat components, surfaces the seeding grid cannot see, size bounds larger than
+the surface."""
 
 from __future__ import annotations
 
@@ -128,4 +129,45 @@ def test_an_expression_smaller_than_the_grid_is_found(certify):
 def test_an_empty_expression_is_still_refused():
     s = rdmesh.ImplicitSurface.from_expression("x**2 + y**2 + z**2 + 1", ((0, 0, 0), 1.0))
     with pytest.raises(rdmesh.EmptySurfaceError):
+        rdmesh.mesh_surface(s, radius_bound=0.1)
+
+
+@pytest.mark.parametrize("bound", [3.0, 1e9])
+def test_a_size_bound_larger_than_the_surface_still_gives_a_closed_mesh(bound):
+    # The grid's seeds used to be thinned to one point: no tetrahedron, no facet.
+    s = rdmesh.ImplicitSurface.from_expression("x*x + y*y + z*z - 1", ((0, 0, 0), 2.0))
+    m = rdmesh.mesh_surface(s, radius_bound=bound)
+    assert m.complete
+    assert closed_manifold_problems(m.faces, len(m.vertices)) == []
+    assert euler_per_component(m.faces, len(m.vertices)) == [2]
+
+
+def test_a_volume_thinner_than_the_seeding_grid_is_found():
+    # A 5-voxel box in a volume 1000 times longer than wide: the grid's
+    # spacing is about 40 times the box's width.
+    a = np.zeros((12, 12, 12))
+    a[3:8, 3:8, 3:8] = 1.0
+    s = rdmesh.VolumeSurface(a, isovalue=0.5, spacing=(1, 1, 1000))
+    m = rdmesh.mesh_surface(s, radius_bound=s.radius / 8)
+    assert m.complete
+    assert closed_manifold_problems(m.faces, len(m.vertices)) == []
+    assert euler_per_component(m.faces, len(m.vertices)) == [2]
+    assert np.abs(s(m.vertices)).max() < 1e-6
+
+
+def test_f_cannot_change_the_points_it_is_given():
+    def f(p):
+        p[:, 0] = 0.0  # would move rdmesh's own samples
+        return np.linalg.norm(p, axis=1) - 0.5
+
+    s = rdmesh.ImplicitSurface(f, ((0, 0, 0), 1.0))
+    with pytest.raises(rdmesh.OracleError, match="read-only"):
+        rdmesh.mesh_surface(s, radius_bound=0.1)
+
+
+def test_complex_values_of_f_are_refused():
+    s = rdmesh.ImplicitSurface(
+        lambda p: (np.linalg.norm(p, axis=1) - 0.5).astype(complex), ((0, 0, 0), 1.0)
+    )
+    with pytest.raises(rdmesh.OracleError, match="complex"):
         rdmesh.mesh_surface(s, radius_bound=0.1)
