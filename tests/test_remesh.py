@@ -464,13 +464,16 @@ def test_cli_round_trip(tmp_path, capsys):
     ("write", "message"),
     [
         (None, "no such file"),
+        ("folder", "a folder, not a file"),
         (b"garbage", "cannot read"),
         ("ply ascii empty", "the mesh is empty"),
     ],
 )
 def test_cli_bad_input_is_one_line(tmp_path, capsys, write, message):
     src = tmp_path / "in.ply"
-    if isinstance(write, bytes):
+    if write == "folder":
+        src.mkdir()
+    elif isinstance(write, bytes):
         src.write_bytes(write)
     elif write is not None:
         trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), int)).export(src)

@@ -24,9 +24,15 @@ def _features(args):
         return None
     from .features.polyline_file import read_polylines
 
-    if not os.path.isfile(args.features):
-        raise _CliError(f"cannot read {args.features!r}: no such file")
+    _check_file(args.features)
     return read_polylines(args.features)
+
+
+def _check_file(path: str) -> None:
+    """A one-line error unless ``path`` is a file."""
+    if not os.path.isfile(path):
+        why = "a folder, not a file" if os.path.isdir(path) else "no such file"
+        raise _CliError(f"cannot read {path!r}: {why}")
 
 
 def _mesh_file_surface(
@@ -37,8 +43,7 @@ def _mesh_file_surface(
 
     from .surfaces.mesh import MeshSurface
 
-    if not os.path.isfile(path):
-        raise _CliError(f"cannot read {path!r}: no such file")
+    _check_file(path)
     try:
         loaded = trimesh.load(path, force="mesh")
     except Exception as exc:  # noqa: BLE001 - trimesh's loaders raise many types

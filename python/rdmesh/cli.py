@@ -45,6 +45,7 @@ import sys
 from . import __version__, core
 from ._cli_surfaces import (  # noqa: F401 - used by the tests and the batch jobs
     _VOLUME_OPTIONS,
+    _check_file,
     _CliError,
     _features,
     _is_volume,
@@ -479,8 +480,7 @@ def _batch(args) -> int:
         raise _CliError("--memory-limit applies to the local cluster, not with --scheduler")
     if args.memory_limit is not None:
         _check_memory_limit(args.memory_limit)
-    if not os.path.isfile(args.jobs):
-        raise _CliError(f"cannot read {args.jobs!r}: no such file")
+    _check_file(args.jobs)
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise _CliError(f"--out {args.out!r} is a file, not a folder")
     try:
