@@ -171,3 +171,29 @@ def test_complex_values_of_f_are_refused():
     )
     with pytest.raises(rdmesh.OracleError, match="complex"):
         rdmesh.mesh_surface(s, radius_bound=0.1)
+
+
+def test_a_run_stops_with_its_mesh_before_memory_runs_out(monkeypatch):
+    import rdmesh.refine.memory as memory
+
+    monkeypatch.setattr(memory, "available_bytes", lambda: 3 * 2**20)
+    s = rdmesh.surfaces.get("torus")
+    with pytest.raises(rdmesh.BudgetExceeded, match="memory: a round of") as info:
+        rdmesh.mesh_surface(s, radius_bound=s.radius / 80)
+    m = info.value.mesh
+    assert info.value.reason.startswith("memory:")
+    assert not m.complete and len(m.vertices) > 0
+    # Enough memory: the same run ends, with more vertices.
+    monkeypatch.setattr(memory, "available_bytes", lambda: 2**40)
+    whole = rdmesh.mesh_surface(s, radius_bound=s.radius / 80)
+    assert whole.complete and len(whole.vertices) > len(m.vertices)
+
+
+def test_the_memory_available_is_read_on_linux():
+    import sys
+
+    from rdmesh.refine.memory import available_bytes
+
+    room = available_bytes()
+    if sys.platform.startswith("linux"):
+        assert room is not None and room > 0

@@ -175,9 +175,12 @@ def mesh_surface(
         The surface reaches the bounding sphere (topology "manifold" or
         "non-manifold"; "manifold-with-boundary" meshes the part inside).
     rdmesh.BudgetExceeded
-        ``max_vertices`` or ``time_limit`` stopped the run; the partial mesh
-        is attached as ``.mesh`` and flagged ``complete=False`` (its report
-        names the regions where tests still fail).
+        ``max_vertices`` or ``time_limit`` stopped the run, or the memory
+        available (Linux: ``MemAvailable``, or a cgroup's limit) would not
+        hold the next round and the run's end (estimated at 4 KB per point
+        inserted and 1 KB per sample; :mod:`rdmesh.refine.memory`); the
+        partial mesh is attached as ``.mesh`` and flagged ``complete=False``
+        (its report names the regions where tests still fail).
     rdmesh.Interrupted
         Ctrl-C (KeyboardInterrupt) stopped the run; a StoppedEarly (not a
         BudgetExceeded) with the partial mesh attached.

@@ -45,6 +45,7 @@ from .deviation import DeviationStage
 from .feature_curves import kink_balls
 from .floor import SpacingFloor
 from .hole_cut import cut_caps, rim_balls
+from .memory import shortfall
 from .methods import METHODS, Plan, boundary_sizing
 from .phases import Phases
 from .pipeline import FacetPipeline
@@ -198,6 +199,7 @@ class Mesher:
             per_point = (now - loop_start) / max(done, len(self.vertices), 1)
             predicted = max(now - cycle_start, per_point * len(batch)) if done else 0.0
             stop = self.budget.exceeded(len(self.vertices), now - t0, predicted, len(batch))
+            stop = stop or shortfall(len(self.vertices), len(batch))
             if stop:
                 break
             cycle_start, done = now, done + len(batch)
