@@ -353,7 +353,9 @@ def _scan(
     the surface has one (expressions, closed volumes, closed mesh inputs; with
     or without ``certify``), the proven component search's points, which with
     the grid's seeds put one on every component when it is proven
-    (:mod:`rdmesh.sampling.components`)."""
+    (:mod:`rdmesh.sampling.components`). Where the grid finds no surface, the
+    search's points and crossings around them (:func:`seeds_around`) are the
+    seeds; with no search, or nothing found, ``EmptySurfaceError`` stands."""
     try:
         scan = grid_scan(surface, rng, resolution, spacing=spacing, clipped=clipped)
     except EmptySurfaceError:
