@@ -60,9 +60,8 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     ----------
     mesh : trimesh.Trimesh or (vertices, faces)
         ``vertices`` an ``(n, 3)`` float array, ``faces`` an ``(m, 3)`` array
-        of vertex indices. Equal vertices are merged, faces that repeat a
-        vertex dropped, a face listed twice kept once (listed once each way,
-        both dropped), and faces turned to agree with their neighbours.
+        of vertex indices. Equal vertices are merged, degenerate and repeated
+        faces dropped, faces turned to agree with their neighbours.
     name : str, default "mesh"
         A label for logs and reports.
     feature_angle : float, "auto" or None, default "auto"
@@ -135,9 +134,8 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
     rdmesh.MeshInputError
         (a ValueError) The input is not a mesh: not a Trimesh or a pair,
         wrong shapes, empty, non-finite vertices, face indices out of range
-        or not integers, complex coordinates, all faces of zero area; a
-        closed component that encloses almost no volume; or it is too open
-        to tell inside from outside.
+        or not integers, complex coordinates, all faces of zero area, a flat
+        closed component; or it is too open to tell inside from outside.
 
     Notes
     -----
