@@ -197,3 +197,12 @@ def test_the_memory_available_is_read_on_linux():
     room = available_bytes()
     if sys.platform.startswith("linux"):
         assert room is not None and room > 0
+
+
+def test_a_block_too_small_says_how_large_it_must_be():
+    from rdmesh.blocks.volume_blocks import MIN_BLOCK
+
+    a = np.zeros((40, 40, 40))
+    a[5:30, 5:30, 5:30] = 1.0
+    with pytest.raises(ValueError, match=f"block must be an integer of at least {MIN_BLOCK}"):
+        rdmesh.mesh_volume_blocks(a, block=1, isovalue=0.5)

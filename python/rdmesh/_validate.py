@@ -29,6 +29,10 @@ def integer(name: str, value: Any, lo: int | None = None, hi: int | None = None)
             what = f"an integer in [{lo}, {hi}]"
         elif lo == 1:
             what = "a positive integer"
+        elif lo is not None:
+            what = f"an integer of at least {lo}"
+        elif hi is not None:
+            what = f"an integer of at most {hi}"
         else:
             what = "an integer"
         raise ValueError(f"{name} must be {what}, got {value!r}")

@@ -12,11 +12,12 @@ from __future__ import annotations
 from pathlib import Path
 
 #: Bytes per point a round inserts (the triangulation, the facet tables, the
-#: snapshot's arrays): 1.7 KB per sample on the tanglecube at R/300, 3.2 KB on
-#: the torus at R/400 (resident memory in the last round over the samples).
+#: snapshot's arrays): 1.6 KB per sample on the tanglecube at R/300, 3.2 KB on
+#: the torus at R/400 (``benchmarks/memory_per_sample.py``: resident memory in
+#: the last round over the samples).
 BYTES_PER_VERTEX = 4096
 #: ... and what the end of a run (the complex, the report) adds per sample:
-#: 0.44 and 0.56 KB in those runs (peak over the last round), doubled.
+#: 0.54 and 0.62 KB in those runs (peak over the last round), rounded up.
 FINISH_BYTES_PER_VERTEX = 1024
 
 
