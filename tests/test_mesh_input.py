@@ -591,7 +591,8 @@ def test_remeshing_with_the_faces_sides_gives_the_same_mesh(overlapping, monkeyp
 def test_closed_oriented_and_merged_points_match_numpys_row_unique(faces, sphere):
     """The sort-key versions give what numpy's row-wise unique gives."""
     import trimesh
-    from rdmesh.surfaces._mesh_input import _unique_points, is_closed_oriented
+    from rdmesh._vectors import unique_rows
+    from rdmesh.surfaces._mesh_input import is_closed_oriented
 
     f = np.asarray(faces, np.int64)
     if sphere:  # a closed, oriented mesh with the drawn faces added
@@ -603,7 +604,7 @@ def test_closed_oriented_and_merged_points_match_numpys_row_unique(faces, sphere
     assert is_closed_oriented(np.asarray(trimesh.creation.icosphere(subdivisions=1).faces))
     points = f.astype(float) / 3.0  # repeated rows
     u, inverse = np.unique(points, axis=0, return_inverse=True)
-    got_u, got_inverse = _unique_points(points)
+    got_u, got_inverse = unique_rows(points)
     assert np.array_equal(u, got_u) and np.array_equal(inverse.reshape(-1), got_inverse)
 
 

@@ -1,5 +1,6 @@
 """Row-wise array helpers: scale-safe norms (no squaring, so no overflow or
-underflow at extreme scales) and the lookup of integer rows in a table."""
+underflow at extreme scales), unique rows, and the lookup of integer rows in a
+table."""
 
 from __future__ import annotations
 
@@ -28,6 +29,17 @@ def unit_rows(v: np.ndarray) -> np.ndarray:
     out = np.zeros_like(v, dtype=np.float64)
     out[ok] = v[ok] / n[ok, None]
     return out
+
+
+def unique_rows(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(v, axis=0, return_inverse=True)`` by one lexsort (numpy's
+    row-wise unique is several times slower on large meshes)."""
+    order = np.lexsort(v.T[::-1])
+    ordered = v[order]
+    new = np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]
+    inverse = np.empty(len(v), np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    return ordered[new], inverse
 
 
 def row_index(rows: np.ndarray, table: np.ndarray) -> np.ndarray:

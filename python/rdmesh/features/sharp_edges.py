@@ -27,12 +27,20 @@ def sharp_edges(faces: np.ndarray, normals: np.ndarray, angle: float) -> np.ndar
 def _edge_cosines(faces: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The edges shared by exactly two faces (sorted vertex pairs) and the
     cosine of the angle between those faces' unit ``normals``."""
+    e, pair, _ = two_face_edges(faces)
+    return e, np.einsum("ij,ij->i", normals[pair[:, 0]], normals[pair[:, 1]])
+
+
+def two_face_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The edges shared by exactly two faces: ``(E, 2)`` sorted vertex pairs,
+    in order; ``(E, 2)`` their two faces; ``(E, 2)`` bool, whether each face
+    runs along the edge from its lower vertex to its higher."""
     f = np.asarray(faces, dtype=np.int64)
-    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
     owner = np.tile(np.arange(len(f)), 3)
-    e = np.sort(e, axis=1)
+    e = np.sort(directed, axis=1)
     order = np.lexsort((e[:, 1], e[:, 0]))
-    e, owner = e[order], owner[order]
+    e, owner, forward = e[order], owner[order], (directed[:, 0] < directed[:, 1])[order]
     same = np.all(e[1:] == e[:-1], axis=1)
     # Pairs (i, i + 1) of the same edge, and only two faces on it.
     first = np.flatnonzero(same)
@@ -43,8 +51,8 @@ def _edge_cosines(faces: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, n
         prv = first - 1
         triple |= (prv >= 0) & np.all(e[np.maximum(prv, 0)] == e[first], axis=1)
     first = first[~triple]
-    na, nb = normals[owner[first]], normals[owner[first + 1]]
-    return e[first], np.einsum("ij,ij->i", na, nb)
+    both = np.c_[first, first + 1]
+    return e[first], owner[both], forward[both]
 
 
 def chain_edges(

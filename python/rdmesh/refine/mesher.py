@@ -66,7 +66,7 @@ MAX_ROUNDS = 2000
 
 @dataclass
 class Budget:
-    """The user's limits on a run; None means unlimited."""
+    """The user's limits on a run (None means unlimited), and the memory available."""
 
     max_vertices: int | None = None
     time_limit: float | None = None
@@ -77,8 +77,9 @@ class Budget:
         """Which budget has run out, in words, or None.
 
         ``next_round`` is the predicted time of another round (inserting
-        ``points``): a round that would end past the time limit is not
-        started, and the message says so.
+        ``points``): a round that would end past the time limit, or not fit
+        in the memory available (:func:`~rdmesh.refine.memory.shortfall`), is
+        not started, and the message says so.
         """
         if self.time_limit is not None and seconds + next_round > self.time_limit:
             if seconds >= self.time_limit:
@@ -90,7 +91,7 @@ class Budget:
             )
         if self.max_vertices is not None and vertices >= self.max_vertices:
             return f"max_vertices={self.max_vertices} reached"
-        return None
+        return shortfall(vertices, points) if points else None
 
 
 class Mesher:
@@ -199,7 +200,6 @@ class Mesher:
             per_point = (now - loop_start) / max(done, len(self.vertices), 1)
             predicted = max(now - cycle_start, per_point * len(batch)) if done else 0.0
             stop = self.budget.exceeded(len(self.vertices), now - t0, predicted, len(batch))
-            stop = stop or shortfall(len(self.vertices), len(batch))
             if stop:
                 break
             cycle_start, done = now, done + len(batch)

@@ -22,7 +22,7 @@ from .._vectors import row_norms
 from ..core import _rdt as core
 from ..features.sharp_edges import chain_edges
 from ._mesh_input import signed_volume
-from ._mesh_repair import FLAT
+from ._mesh_repair import is_flat
 
 #: Where the feature curves come from: the rims (boundaries of a mesh with holes kept).
 RIM_SOURCE = "hole rim"
@@ -273,7 +273,7 @@ def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
     surface.faces, norms, surface._normals = with_caps(*inputs, v, surface.holes)
     if len(surface.faces) > n:
         volume = signed_volume(v, surface.faces)  # positive: with_caps turned them out
-        if 36 * np.pi * volume**2 <= FLAT * (0.5 * float(norms.sum())) ** 3:
+        if is_flat(volume, 0.5 * float(norms.sum())):
             raise MeshInputError(
                 "the mesh is too open to tell inside from outside: closed by caps over its "
                 f"{len(surface.holes.rims)} holes it encloses no volume (a flat patch?)"

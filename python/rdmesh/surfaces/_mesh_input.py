@@ -23,6 +23,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .._errors import MeshInputError
 from .._validate import scale_problem
+from .._vectors import unique_rows
 from ..core import MeshDistance
 from ..features.sharp_edges import sharp_edges
 from ._mesh_repair import check_volumes, coherently_oriented, without_duplicates
@@ -98,7 +99,7 @@ def clean(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Merge equal vertices, drop faces that repeat a vertex, repeated faces and
     unused vertices, turn faces to agree with their neighbours, and split
     pinched vertices (:func:`split_pinches`)."""
-    v, inverse = _unique_points(v)
+    v, inverse = unique_rows(v)
     f = inverse[f]
     keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
     f = f[keep]
@@ -109,17 +110,6 @@ def clean(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         raise MeshInputError("every face of the mesh is listed once each way: they cancel out")
     used, f = np.unique(f, return_inverse=True)
     return split_pinches(v[used], f.reshape(-1, 3).astype(np.int64))
-
-
-def _unique_points(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``np.unique(v, axis=0, return_inverse=True)`` by one lexsort (numpy's
-    row-wise unique is several times slower on large meshes)."""
-    order = np.lexsort(v.T[::-1])
-    ordered = v[order]
-    new = np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]
-    inverse = np.empty(len(v), np.int64)
-    inverse[order] = np.cumsum(new) - 1
-    return ordered[new], inverse
 
 
 def split_pinches(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -20,6 +20,8 @@ from scipy.sparse.csgraph import connected_components
 
 from .._errors import MeshInputError
 from .._mesh_components import labelled_components
+from .._vectors import unique_rows
+from ..features.sharp_edges import two_face_edges
 
 log = logging.getLogger("rdmesh")
 
@@ -29,35 +31,29 @@ log = logging.getLogger("rdmesh")
 FLAT = 1e-6
 
 
+def is_flat(volume, area):
+    """Whether a closed surface of ``area`` enclosing ``volume`` (numbers or
+    arrays) is flat (:data:`FLAT`)."""
+    return 36.0 * np.pi * np.square(volume) <= FLAT * np.power(area, 3)
+
+
 def without_duplicates(f: np.ndarray) -> np.ndarray:
-    """``f`` without repeated faces: of faces on the same three vertices, one
-    copy of each orientation is kept, and a pair of opposite orientations
-    (which cancel in the winding number) goes."""
+    """``f`` without repeated faces: of faces on the same three vertices, the
+    first of the orientation left once opposite pairs cancel (in the winding
+    number) is kept, or none when they all cancel."""
     key = np.sort(f, axis=1)
-    order = np.lexsort(key.T[::-1])
-    k = key[order]
-    start = np.r_[True, np.any(k[1:] != k[:-1], axis=1)]
-    if start.all():
+    groups, group = unique_rows(key)
+    if len(groups) == len(f):
         return f
-    group = np.cumsum(start) - 1
-    # The orientation: whether the face is an even permutation of its sorted vertices.
-    even = _even(f[order], k)
-    n_groups = int(group[-1]) + 1
-    n_even = np.bincount(group, weights=even, minlength=n_groups)
-    n_odd = np.bincount(group, minlength=n_groups) - n_even
-    # One face per group, of the orientation left once opposite pairs cancel.
-    first_even = np.full(n_groups, -1, np.int64)
-    first_odd = np.full(n_groups, -1, np.int64)
-    idx = np.arange(len(order))
-    first_even[group[even][::-1]] = idx[even][::-1]
-    first_odd[group[~even][::-1]] = idx[~even][::-1]
-    pick = np.where(n_even > n_odd, first_even, np.where(n_odd > n_even, first_odd, -1))
-    cancelled = int(np.count_nonzero(pick < 0))
-    keep = np.sort(order[pick[pick >= 0]])
+    # +1 where the face lists its sorted vertices in cyclic order, else -1.
+    sign = np.where(_even(f, key), 1.0, -1.0)
+    net = np.sign(np.bincount(group, weights=sign, minlength=len(groups)))
+    majority = np.flatnonzero(sign == net[group])
+    keep = np.sort(majority[np.unique(group[majority], return_index=True)[1]])
     log.warning(
         "MeshSurface: %d repeated faces dropped (%d pairs of opposite faces, which "
         "cancel, both dropped)",
-        len(f) - len(keep), cancelled,
+        len(f) - len(keep), int(np.count_nonzero(net == 0)),
     )  # fmt: skip
     return f[keep]
 
@@ -79,22 +75,12 @@ def coherently_oriented(f: np.ndarray) -> np.ndarray:
     m = len(f)
     if m == 0:
         return f
-    heads = f.reshape(-1)
-    tails = f[:, [1, 2, 0]].reshape(-1)
-    face = np.repeat(np.arange(m), 3)
-    n = int(f.max()) + 1
-    key = np.minimum(heads, tails) * n + np.maximum(heads, tails)
-    order = np.argsort(key, kind="stable")
-    k = key[order]
-    start = np.r_[True, k[1:] != k[:-1]]
-    count = np.diff(np.r_[np.flatnonzero(start), len(k)])
-    pair = np.flatnonzero(start)[count == 2]
-    a, b = order[pair], order[pair + 1]
+    _, pair, forward = two_face_edges(f)
     # Neighbours agree when they run along the shared edge in opposite directions.
-    agree = heads[a] != heads[b]
+    agree = forward[:, 0] != forward[:, 1]
     if agree.all():
         return f
-    fa, fb = face[a], face[b]
+    fa, fb = pair[:, 0], pair[:, 1]
     # Two copies of each face, kept (i) and turned (i + m): agreeing
     # neighbours join copies of the same kind, disagreeing ones across.
     rows = np.r_[fa, fa + m]
@@ -136,7 +122,7 @@ def check_volumes(v: np.ndarray, f: np.ndarray, norms: np.ndarray) -> None:
     det = np.einsum("ij,ij->i", u[f[:, 0]], np.cross(u[f[:, 1]], u[f[:, 2]])) / 6.0
     volume = np.bincount(face_label, weights=det, minlength=count)
     area = 0.5 * np.bincount(face_label, weights=norms, minlength=count) / size**2
-    flat = 36.0 * np.pi * volume**2 <= FLAT * area**3
+    flat = is_flat(volume, area)
     if flat.any():
         c = int(np.argmax(flat))
         where = v[f[face_label == c]].reshape(-1, 3).mean(axis=0)

@@ -228,6 +228,14 @@ def _evaluate_in_chunks(surface: ImplicitSurface, points: np.ndarray) -> np.ndar
     return np.concatenate([_evaluate(surface, pts[i : i + _CHUNK]) for i in range(0, n, _CHUNK)])
 
 
+def _read_only(pts: np.ndarray) -> np.ndarray:
+    """A read-only view of ``pts`` for the user's functions: one that wrote
+    into its argument would move rdmesh's own points."""
+    view = pts.view()
+    view.flags.writeable = False
+    return view
+
+
 def _evaluate(surface: ImplicitSurface, pts: np.ndarray) -> np.ndarray:
     """``surface.f`` on C-contiguous ``(n, 3)`` points, counted and checked: ``(n,)``.
 
@@ -239,11 +247,8 @@ def _evaluate(surface: ImplicitSurface, pts: np.ndarray) -> np.ndarray:
     n = len(pts)
     with surface._lock:
         surface.evaluations += n
-    # Read-only: an f that wrote into its argument changed rdmesh's own points.
-    view = pts.view()
-    view.flags.writeable = False
     try:
-        out = surface.f(view)
+        out = surface.f(_read_only(pts))
     except Exception as exc:  # noqa: BLE001 - user code may raise anything
         raise OracleError(f"the surface function raised {type(exc).__name__}: {exc}") from exc
     if np.iscomplexobj(out):
@@ -289,10 +294,8 @@ def _evaluate_gradient(surface: ImplicitSurface, points: np.ndarray, order: int)
     if surface.gradient is not None:
         with surface._lock:
             surface.evaluations += n
-        view = pts.view()
-        view.flags.writeable = False
         try:
-            g = np.asarray(surface.gradient(view), dtype=np.float64)
+            g = np.asarray(surface.gradient(_read_only(pts)), dtype=np.float64)
         except Exception as exc:  # noqa: BLE001
             raise OracleError(f"the gradient function raised {type(exc).__name__}: {exc}") from exc
         if g.shape != (n, 3) or not np.all(np.isfinite(g)):
