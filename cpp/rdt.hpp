@@ -170,6 +170,7 @@ struct VoronoiFacets {
 struct StarRelabel {
   std::vector<std::int64_t> faces;    // k*3, oriented outward
   std::vector<std::int64_t> flipped;  // c*4 sorted ids of each cell flipped
+  bool timed_out = false;             // max_seconds passed: later vertices left as they were
 };
 
 // Throws std::invalid_argument unless 0 <= id < n (a sample id).
@@ -288,11 +289,12 @@ class RestrictedDelaunay {
   // toggles the cells' four facets.  Faces come back in their order, the
   // removed ones dropped, then the added ones.  Throws
   // std::invalid_argument for ids out of range, a face repeating a vertex or
-  // a face given twice.
+  // a face given twice.  Vertices go in id order; once max_seconds have
+  // passed, the rest are left as they are (timed_out).
   StarRelabel relabel_stars(const std::int64_t* faces, std::size_t F,
                             const std::int64_t* ids, std::size_t k,
                             const std::int64_t* cells, const double* cost,
-                            std::size_t c) const;
+                            std::size_t c, double max_seconds) const;
 
   // Every Delaunay edge between samples (sorted id pairs, as delaunay_edges
   // gives them) and the bounding box of its Voronoi facet, 6 doubles per edge

@@ -3,6 +3,7 @@
 // repair, and what to report, is Python's business.
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <limits>
 #include <numeric>
@@ -100,7 +101,8 @@ StarCells RestrictedDelaunay::star_cells(const std::int64_t* ids, std::size_t k)
 StarRelabel RestrictedDelaunay::relabel_stars(const std::int64_t* faces, std::size_t F,
                                               const std::int64_t* ids, std::size_t k,
                                               const std::int64_t* cells4, const double* cost,
-                                              std::size_t c) const {
+                                              std::size_t c, double max_seconds) const {
+  const auto start = std::chrono::steady_clock::now();
   const std::size_t n = samples_.size();
   Faces set;
   set.entries.reserve(F + 64);
@@ -137,7 +139,15 @@ StarRelabel RestrictedDelaunay::relabel_stars(const std::int64_t* faces, std::si
   StarRelabel out;
   std::vector<Cell_handle> star;
   std::vector<std::array<std::int64_t, 4>> cell_ids;
-  for (std::int64_t v : order) {
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    // The clock is read once per 64 vertices: a star takes microseconds.
+    if (i % 64 == 0 && i > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >
+            max_seconds) {
+      out.timed_out = true;
+      break;
+    }
+    const std::int64_t v = order[i];
     const Vertex_handle vp = samples_[v];
     star.clear();
     dt_.incident_cells(vp, std::back_inserter(star));

@@ -146,6 +146,10 @@ def test_time_limit_message_says_what_happened():
     msg = b.exceeded(10, 290.0, 25.0, 4000)
     assert "stopped after 290.0s" in msg and "4000 points" in msg and "25.0s" in msg
     assert "after 301.0s" in b.exceeded(10, 301.0)
+    # Building the mesh after the round counts too.
+    assert b.exceeded(10, 270.0, 25.0, 4000) is None
+    msg = b.exceeded(10, 270.0, 25.0, 4000, finish=8.0)
+    assert "stopped after 270.0s" in msg and "8.0s to build the mesh" in msg
 
 
 def test_sheet_gap_measures_the_thinnest_part():

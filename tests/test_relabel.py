@@ -41,7 +41,7 @@ def relabelled():
 @pytest.fixture(scope="module")
 def restricted():
     patch = pytest.MonkeyPatch()
-    patch.setattr(mesher, "_relabel", lambda m, plan, snap: None)
+    patch.setattr(mesher, "_relabel", lambda *args: None)
     try:
         return _mesh()
     finally:
@@ -67,6 +67,20 @@ def test_relabelled_mesh_is_closed_and_says_so(relabelled):
     assert all(abs(r["centre"][2]) < 0.01 for r in rel["regions"])
     assert rep["tbp_holds"] is False and rep["certified"] is False
     assert "pinched vertices" in rep["statement"]
+
+
+def test_the_time_allowed_ends_the_relabelling_and_the_report_says_so(monkeypatch, relabelled):
+    # As if the run's time_limit had passed before the relabelling started.
+    from rdmesh.topology.relabel import relabel_pinches
+
+    monkeypatch.setattr(mesher, "relabel_pinches", lambda *a: relabel_pinches(*a[:6], 0.0))
+    late = _mesh()
+    rel = late.report["relabelled"]
+    assert relabelled.report["relabelled"]["timed_out"] is False
+    assert rel["timed_out"] is True and rel["cells_flipped"] == 0
+    assert rel["still_pinched"] == rel["pinched_vertices"] > 0
+    assert late.report["closed_manifold"] is False
+    assert "the time limit ended the relabelling" in late.report["statement"]
 
 
 def test_changed_faces_are_counted(relabelled, restricted):
@@ -128,7 +142,7 @@ def test_relabel_stars_makes_two_cells_on_an_edge_one_disk():
     st = complex_status(faces, len(pts))
     assert np.any(st.edge_count == 4)
     edge = np.intersect1d(pair[0], pair[1])
-    out, flipped = rdt.relabel_stars(faces, edge, cells, np.ones(len(cells)))
+    out, flipped, _ = rdt.relabel_stars(faces, edge, cells, np.ones(len(cells)))
     assert len(flipped) > 0
     assert is_closed_manifold(out, len(pts))
     # Still the boundary of a cell labelling: outward, enclosing a positive volume.
@@ -140,7 +154,7 @@ def test_cells_without_a_cost_are_never_moved():
     rdt, pts, cells, pair = _cells_sharing_an_edge()
     faces = np.array(_outward(pts, pair[0]) + _outward(pts, pair[1]), np.int64)
     edge = np.intersect1d(pair[0], pair[1])
-    out, flipped = rdt.relabel_stars(faces, edge, cells[:0], np.ones(0))
+    out, flipped, _ = rdt.relabel_stars(faces, edge, cells[:0], np.ones(0))
     assert len(flipped) == 0
     assert sorted(map(tuple, out.tolist())) == sorted(map(tuple, faces.tolist()))
 
@@ -165,6 +179,14 @@ def test_relabel_stars_rejects_bad_input(faces, ids, message):
         )
     with pytest.raises(ValueError, match="out of range"):
         rdt.star_cells(np.array([10]))
+    with pytest.raises(ValueError, match="max_seconds"):
+        rdt.relabel_stars(
+            np.zeros((0, 3), np.int64),
+            np.array([0]),
+            np.zeros((0, 4), np.int64),
+            np.zeros(0),
+            -1.0,
+        )
 
 
 def _boundary_of_labelling(pts, cells, inside):
@@ -218,7 +240,7 @@ def test_relabelling_keeps_the_boundary_of_a_labelling(seed):
         todo = pinched_vertices(complex_status(out, n), n)
         if not len(todo):
             break
-        out, flipped = rdt.relabel_stars(out, todo, cells, cost)
+        out, flipped, _ = rdt.relabel_stars(out, todo, cells, cost)
         assert len(flipped)
         directed = np.concatenate([out[:, [0, 1]], out[:, [1, 2]], out[:, [2, 0]]])
         uses = Counter(map(tuple, directed.tolist()))
@@ -247,5 +269,5 @@ def test_faces_that_bound_no_labelling_end_without_a_hang(seed):
     if not len(faces):
         return
     # Every vertex of a face, pinched or not.
-    out, _ = rdt.relabel_stars(faces, np.unique(faces), cells, rng.random(len(cells)))
+    out, _, _ = rdt.relabel_stars(faces, np.unique(faces), cells, rng.random(len(cells)))
     assert rdt.is_facet(out).all()

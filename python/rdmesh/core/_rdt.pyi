@@ -255,10 +255,16 @@ class RestrictedDelaunay:
         npt.NDArray[np.float64],  # (c, 3) circumcentres
     ]: ...
     def relabel_stars(
-        self, faces: npt.ArrayLike, ids: npt.ArrayLike, cells: npt.ArrayLike, cost: npt.ArrayLike
+        self,
+        faces: npt.ArrayLike,
+        ids: npt.ArrayLike,
+        cells: npt.ArrayLike,
+        cost: npt.ArrayLike,
+        max_seconds: float = ...,
     ) -> tuple[
         npt.NDArray[np.int64],  # (k, 3) outward faces
         npt.NDArray[np.int64],  # (m, 4) sorted ids of the cells moved
+        bool,  # max_seconds cut it short
     ]: ...
     def voronoi_boxes(
         self,

@@ -59,6 +59,11 @@ log = logging.getLogger("rdmesh")
 #: smallest angle next to a ball below which a ball is shrunk.
 MAX_REPAIRS, REPAIR_ANGLE = 3, 20.0
 
+#: Building the mesh after the last round (snapshot, relabelling, report)
+#: costs about this share of the loop's time per vertex (0.07-0.13 on the
+#: torus, tanglecube and double torus, 2026-12-06): a time limit reserves it.
+FINISH_SHARE = 0.15
+
 #: Safety cap on rounds; smooth inputs need tens. Reaching it ends the run
 #: with the remaining points unresolved, like the spacing floor.
 MAX_ROUNDS = 2000
@@ -72,22 +77,28 @@ class Budget:
     time_limit: float | None = None
 
     def exceeded(
-        self, vertices: int, seconds: float, next_round: float = 0.0, points: int = 0
+        self,
+        vertices: int,
+        seconds: float,
+        next_round: float = 0.0,
+        points: int = 0,
+        finish: float = 0.0,
     ) -> str | None:
         """Which budget has run out, in words, or None.
 
         ``next_round`` is the predicted time of another round (inserting
-        ``points``): a round that would end past the time limit, or not fit
-        in the memory available (:func:`~rdmesh.refine.memory.shortfall`), is
-        not started, and the message says so.
+        ``points``) and ``finish`` that of building the mesh after it: a round
+        that would end past the time limit, or not fit in the memory
+        available (:func:`~rdmesh.refine.memory.shortfall`), is not started,
+        and the message says so.
         """
-        if self.time_limit is not None and seconds + next_round > self.time_limit:
+        if self.time_limit is not None and seconds + next_round + finish > self.time_limit:
             if seconds >= self.time_limit:
                 return f"time_limit={self.time_limit:g}s reached after {seconds:.1f}s"
             return (
                 f"time_limit={self.time_limit:g}s reached: stopped after {seconds:.1f}s, "
                 f"before a round of {points} points predicted to take {next_round:.1f}s "
-                "would end past the limit"
+                f"(and {finish:.1f}s to build the mesh) would end past the limit"
             )
         if self.max_vertices is not None and vertices >= self.max_vertices:
             return f"max_vertices={self.max_vertices} reached"
@@ -199,7 +210,10 @@ class Mesher:
             now = time.perf_counter()
             per_point = (now - loop_start) / max(done, len(self.vertices), 1)
             predicted = max(now - cycle_start, per_point * len(batch)) if done else 0.0
-            stop = self.budget.exceeded(len(self.vertices), now - t0, predicted, len(batch))
+            finish = FINISH_SHARE * per_point * (len(self.vertices) + len(batch))
+            stop = self.budget.exceeded(
+                len(self.vertices), now - t0, predicted, len(batch), finish if done else 0.0
+            )
             if stop:
                 break
             cycle_start, done = now, done + len(batch)
@@ -456,13 +470,16 @@ def _cut_centroids(m: Mesher, tri: np.ndarray) -> np.ndarray:
     return cut
 
 
-def _relabel(m: Mesher, plan: Plan, snap: Snapshot) -> Relabelled | None:
+def _relabel(m: Mesher, plan: Plan, snap: Snapshot, t0: float) -> Relabelled | None:
     """The final complex relabelled at its pinched vertices, when the parity
-    rule made it the boundary of a cell labelling (closed surfaces only)."""
+    rule made it the boundary of a cell labelling (closed surfaces only),
+    within the run's time limit."""
     if not plan.parity or m.clipped:
         return None
     tri, centres, _ = snap.facets(0)
-    r = relabel_pinches(m.rdt, m.surface, m.vertices, tri, centres, snap.status)
+    limit = m.budget.time_limit
+    seconds = np.inf if limit is None else t0 + limit - time.perf_counter()
+    r = relabel_pinches(m.rdt, m.surface, m.vertices, tri, centres, snap.status, max(seconds, 0.0))
     if r is not None:
         log.warning(
             "%d pinched vertices below the spacing floor (an edge in 4 triangles or 2 fans) "
@@ -472,6 +489,8 @@ def _relabel(m: Mesher, plan: Plan, snap: Snapshot) -> Relabelled | None:
             describe_regions(regions(r.changed, REGION_LINK * m.surface.radius)),
             f"; {len(r.left)} vertices are still pinched" if len(r.left) else "",
         )  # fmt: skip
+        if r.timed_out:
+            log.warning("the time limit ended the relabelling of pinched vertices")
     return r
 
 
@@ -507,7 +526,7 @@ def _result(
     snap = m.snapshot()
     confirm_defects(snap)  # the report's edge and disk tests count every facet
     tri, centres, _ = snap.facets(0)
-    relabelled = _relabel(m, plan, snap)
+    relabelled = _relabel(m, plan, snap, t0)
     faces = tri
     if relabelled is not None:
         faces, centres = relabelled.faces, relabelled.centres

@@ -15,6 +15,7 @@ Delaunay facets; the report says where.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +44,8 @@ class Relabelled:
     changed : (k, 3) centroids of the faces added or removed.
     pinched : number of distinct vertices found pinched.
     left : (m,) sample ids still pinched.
+    timed_out : the time allowed ended the relabelling before every pinched
+        vertex was visited.
     """
 
     faces: np.ndarray
@@ -51,6 +54,7 @@ class Relabelled:
     changed: np.ndarray
     pinched: int
     left: np.ndarray
+    timed_out: bool = False
 
 
 def pinched_vertices(status: ComplexStatus, n_vertices: int) -> np.ndarray:
@@ -82,6 +86,7 @@ def relabel_pinches(
     faces: np.ndarray,
     centres: np.ndarray,
     status: ComplexStatus | None = None,
+    seconds: float = np.inf,
 ) -> Relabelled | None:
     """Relabel cells at the pinched vertices of ``faces``; None when none is pinched.
 
@@ -95,19 +100,27 @@ def relabel_pinches(
     faces : (F, 3) restricted facets, outward.
     centres : (F, 3) their surface centres.
     status : :func:`complex_status` of ``faces``, if known.
+    seconds : the time allowed (a run's ``time_limit``): the vertices not
+        reached by then (in id order) are left pinched, and ``timed_out`` says so.
     """
+    end = time.perf_counter() + seconds
     n = len(vertices)
     st = complex_status(faces, n) if status is None else status
     todo = pinched_vertices(st, n)
     if not len(todo):
         return None
-    seen, out, flips = [todo], faces, 0
+    seen, out, flips, timed_out = [todo], faces, 0, False
     for _ in range(MAX_PASSES):
+        timed_out = time.perf_counter() >= end
+        if timed_out:
+            break
         cells, cc = rdt.star_cells(todo)
-        out, flipped = rdt.relabel_stars(out, todo, cells, surface_distance(surface, cc))
+        cost = surface_distance(surface, cc)
+        left = max(end - time.perf_counter(), 0.0)
+        out, flipped, timed_out = rdt.relabel_stars(out, todo, cells, cost, left)
         flips += len(flipped)
         todo = pinched_vertices(complex_status(out, n), n)
-        if not len(flipped) or not len(todo):
+        if timed_out or not len(flipped) or not len(todo):
             break
         seen.append(todo)
     before, after = np.sort(faces, axis=1), np.sort(out, axis=1)
@@ -124,4 +137,5 @@ def relabel_pinches(
         changed=changed,
         pinched=len(np.unique(np.concatenate(seen))),
         left=todo,
+        timed_out=timed_out,
     )

@@ -278,6 +278,7 @@ def _relabelled(r: Relabelled, link: float) -> dict[str, Any]:
         "cells_flipped": r.cells,
         "faces_changed": len(r.changed),
         "still_pinched": len(r.left),
+        "timed_out": r.timed_out,
         "regions": regions(r.changed, link),
     }
 
@@ -492,6 +493,7 @@ def _statement(rep: dict[str, Any]) -> str:
                 f"surface, so {rel['faces_changed']} faces are not restricted Delaunay facets "
                 f"({describe_regions(rel['regions'])})"
                 + (f"; {rel['still_pinched']} are still pinched" if rel["still_pinched"] else "")
+                + (" (the time limit ended the relabelling)" if rel["timed_out"] else "")
             )
         pockets = rep.get("pockets")
         if pockets:
