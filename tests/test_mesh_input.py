@@ -538,6 +538,30 @@ def test_face_sides_of_overlapping_spheres(overlapping):
     assert getattr(rdmesh.MeshSurface(sphere_mesh((0, 0, 0), 1.0)), "_face_sides", None) is None
 
 
+def test_closest_points_and_distance_need_no_winding_number(overlapping, monkeypatch):
+    """Unsigned queries (the distance check, the report's sheet gaps) ask only
+    for the closest face: no winding number, whose cost is the query's many times."""
+    from rdmesh.surfaces import _mesh_queries
+
+    pts = np.random.default_rng(3).uniform(-1.5, 2.7, (500, 3))
+    expected = np.abs(overlapping.signed_distance(pts))
+    inside = np.abs(overlapping._winding_factor(pts)) == 1.0  # w far from 1/2
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("winding number asked for")
+
+    monkeypatch.setattr(_mesh_queries, "winding_numbers", refuse)
+    closest, face = overlapping.closest_points(pts)
+    d = overlapping.distance(pts)
+    assert np.allclose(d, np.linalg.norm(pts - closest, axis=1), rtol=1e-12, atol=1e-15)
+    # Where the sign factor is +-1, |signed distance| is the distance.
+    assert inside.sum() > 400 and np.allclose(d[inside], expected[inside], rtol=1e-12)
+    # The closest point lies on its face's plane.
+    v, f = overlapping.vertices, overlapping.faces
+    n = overlapping._normals[face]
+    assert np.allclose(np.einsum("ij,ij->i", closest - v[f[face, 0]], n), 0.0, atol=1e-12)
+
+
 def _random_segments(v, n, seed):
     rng = np.random.default_rng(seed)
     a = v[rng.integers(0, len(v), n)] + rng.normal(0, 0.1, (n, 3))

@@ -207,13 +207,9 @@ class Mesher:
             with self.timer("select"):
                 pick = core.select_independent(found.centres, found.radii)
                 batch, stages = found.centres[pick], found.stages(pick)
-            now = time.perf_counter()
-            per_point = (now - loop_start) / max(done, len(self.vertices), 1)
-            predicted = max(now - cycle_start, per_point * len(batch)) if done else 0.0
-            finish = FINISH_SHARE * per_point * (len(self.vertices) + len(batch))
-            stop = self.budget.exceeded(
-                len(self.vertices), now - t0, predicted, len(batch), finish if done else 0.0
-            )
+            now, n = time.perf_counter(), len(self.vertices)
+            ahead = _ahead(now - loop_start, now - cycle_start, done, n, len(batch))
+            stop = self.budget.exceeded(n, now - t0, ahead[0], len(batch), ahead[1])
             if stop:
                 break
             cycle_start, done = now, done + len(batch)
@@ -257,6 +253,16 @@ class Mesher:
                 self.defects,
             )  # fmt: skip
         return self._snap
+
+
+def _ahead(loop: float, last: float, done: int, n: int, k: int) -> tuple[float, float]:
+    """Predicted seconds of the next round of ``k`` points on ``n`` samples,
+    and of building the mesh after it, from the loop's ``loop`` seconds so far
+    (``done`` points inserted) and the ``last`` round's; (0, 0) before any round."""
+    if not done:
+        return 0.0, 0.0
+    per_point = loop / max(done, n, 1)
+    return max(last, per_point * k), FINISH_SHARE * per_point * (n + k)
 
 
 def _insert_stages(m: Mesher, points: np.ndarray, stages: np.ndarray) -> int:

@@ -115,11 +115,7 @@ class MeshQueries(CrossingFaces):
 
     def _query(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Distance, closest point, closest face and sign factor s in [-1, 1]."""
-        parts = [self._core.query(pts[i : i + _CHUNK]) for i in range(0, len(pts), _CHUNK)]
-        if len(parts) == 1:
-            dist, closest, face, side = parts[0]
-        else:
-            dist, closest, face, side = (np.concatenate(x) for x in zip(*parts, strict=True))
+        dist, closest, face, side = _nearest(self._core, pts)
         if self.sign_method == "side":
             return dist, closest, face, side.astype(np.float64)
         return dist, closest, face, self._winding_factor(pts, closest, face)
@@ -184,13 +180,27 @@ class MeshQueries(CrossingFaces):
         pts = _points(points)
         if len(pts) == 0:
             return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
-        _, closest, face, _ = self._query(pts)
+        # No sign: a winding number per point would cost more than the query.
+        _, closest, face, _ = _nearest(self._core, pts)
         return closest, face
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Distance to the mesh at ``(N, 3)`` points: ``(N,)``, unsigned."""
+        pts = _points(points)
+        return _nearest(self._core, pts)[0] if len(pts) else np.zeros(0)
 
     def winding_number(self, points: np.ndarray) -> np.ndarray:
         """Generalized winding number of the mesh at ``(N, 3)`` points: ``(N,)``."""
         pts = _points(points)
         return self._core.winding_number(pts)
+
+
+def _nearest(core_, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Distance, closest point, closest face and the core's side of it, in chunks."""
+    parts = [core_.query(pts[i : i + _CHUNK]) for i in range(0, len(pts), _CHUNK)]
+    if len(parts) == 1:
+        return parts[0]
+    return tuple(np.concatenate(x) for x in zip(*parts, strict=True))
 
 
 def queried_gradient(q: MeshQueries, pts: np.ndarray) -> np.ndarray:

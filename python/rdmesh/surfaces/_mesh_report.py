@@ -138,7 +138,7 @@ class MeshReport:
         gaps = []
         for sign in (1.0, -1.0):
             probe = closest[None] + sign * t[:, None, None] * n[None]
-            d = np.abs(self.signed_distance(probe.reshape(-1, 3))).reshape(len(t), -1)
+            d = self.distance(probe.reshape(-1, 3)).reshape(len(t), -1)
             behind = _behind(d, t[:, None])
             found = behind.any(axis=0)
             first = np.argmax(behind, axis=0)
@@ -149,7 +149,7 @@ class MeshReport:
             at = np.flatnonzero(found)
             for _ in range(GAP_BISECTIONS):
                 mid = 0.5 * (lo[at] + hi[at])
-                dm = np.abs(self.signed_distance(closest[at] + sign * mid[:, None] * n[at]))
+                dm = self.distance(closest[at] + sign * mid[:, None] * n[at])
                 past = _behind(dm, mid)
                 hi[at] = np.where(past, mid, hi[at])
                 lo[at] = np.where(past, lo[at], mid)
