@@ -230,3 +230,45 @@ def test_drop_pockets_properties(sizes, labels, bound):
         assert any(labels[d] == lab and d not in dropped for d in range(len(verts)))
     if p is not None:
         assert p.faces == int((~p.keep).sum()) and len(p.centres) == len(dropped)
+
+
+# -- specks next to unresolved points (any input) ----------------------------------
+
+
+def _sphere_and_tetrahedron(offset):
+    a = trimesh.creation.icosphere(subdivisions=2)
+    tet = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]]) * 0.01 + offset
+    v = np.concatenate([a.vertices, tet])
+    tf = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]) + len(a.vertices)
+    f = np.concatenate([a.faces, tf])
+    return v, f
+
+
+def _size(p):
+    return np.full(len(p), 0.1)
+
+
+@pytest.mark.parametrize("away, dropped", [(0.005, True), (0.05, False)])
+def test_a_speck_is_dropped_only_next_to_unresolved_points(away, dropped):
+    from rdmesh.topology.pockets import drop_specks
+
+    v, f = _sphere_and_tetrahedron([1.5, 0.0, 0.0])
+    unresolved = np.array([[1.5 + away, 0.005, 0.005], [0.0, 0.0, 1.0]])
+    p = drop_specks(v, f, unresolved, _size)
+    if not dropped:
+        assert p is None
+        return
+    assert p.specks and not p.ruled_out and p.faces == 4
+    assert np.array_equal(np.flatnonzero(~p.keep), np.arange(len(f) - 4, len(f)))
+    assert np.allclose(p.centres, [[1.5025, 0.0025, 0.0025]])
+
+
+def test_no_speck_without_unresolved_points_or_above_the_size_bound():
+    from rdmesh.topology.pockets import drop_specks
+
+    v, f = _sphere_and_tetrahedron([1.5, 0.0, 0.0])
+    near = np.array([[1.505, 0.005, 0.005]])
+    assert drop_specks(v, f, np.zeros((0, 3)), _size) is None
+    assert drop_specks(v, f, near, lambda p: np.full(len(p), 0.005)) is None
+    # The largest component is never a speck, however small and close.
+    assert drop_specks(v[-4:], f[-4:] - (len(v) - 4), near, _size) is None

@@ -83,11 +83,28 @@ def test_the_time_allowed_ends_the_relabelling_and_the_report_says_so(monkeypatc
     assert "the time limit ended the relabelling" in late.report["statement"]
 
 
-def test_changed_faces_are_counted(relabelled, restricted):
-    # The same run but for the relabelling: the faces that differ are those reported.
+def test_changed_faces_are_counted(monkeypatch):
+    # The same run but for the relabelling (both keeping their specks): the
+    # faces that differ are those reported.
+    monkeypatch.setattr(mesher, "_pockets", lambda *args: None)
+    relabelled = _mesh()
+    monkeypatch.setattr(mesher, "_relabel", lambda *args: None)
+    restricted = _mesh()
     a = {tuple(sorted(map(tuple, relabelled.vertices[f].tolist()))) for f in relabelled.faces}
     b = {tuple(sorted(map(tuple, restricted.vertices[f].tolist()))) for f in restricted.faces}
     assert len(a ^ b) == relabelled.report["relabelled"]["faces_changed"]
+
+
+def test_specks_in_the_gap_are_dropped_and_reported(relabelled):
+    """The cells of the gap thinner than the floor that the relabelling seals
+    off are tiny closed components next to the refused points: dropped, the
+    report says how many and where; what is left is the union, one surface."""
+    assert relabelled.report["components"] == 1
+    p = relabelled.report["pockets"]
+    assert p["specks"] is True and p["ruled_out"] is False and p["dropped"] > 0
+    assert p["largest"] < 0.1  # below the size bound
+    assert all(abs(r["centre"][2]) < 0.01 for r in p["regions"])  # at the rim
+    assert "refused below the spacing floor" in relabelled.report["statement"]
 
 
 def test_faces_stay_outward(relabelled):

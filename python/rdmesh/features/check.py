@@ -148,7 +148,10 @@ def repair_sites(
     ``soft`` balls (``(centres, is_soft)``: a volume's kink curves) are left
     out: beside a thin wedge, smaller balls make the wedge thinner at their
     edge, so refinement stops at the spacing floor in more places and the
-    angles next to them do not rise (measured: RESULTS.md, issue 30)."""
+    angles next to them do not rise (measured: RESULTS.md, issue 30). For
+    the same reason, places whose shrinking reach holds a point the run left
+    unresolved (``mesh.unresolved``: sheets closer than the floor, or a
+    singular point, as where two solids of a union touch) are left out."""
     f = mesh.features
     w = mesh.weights
     r_max = float(np.sqrt(w.max())) if w is not None and len(w) and w.max() > 0 else 0.0
@@ -167,4 +170,8 @@ def repair_sites(
     if soft is not None and len(pts) and soft[1].any():
         _, j = cKDTree(soft[0]).query(pts)
         pts, rad = pts[~soft[1][j]], rad[~soft[1][j]]
+    unresolved = getattr(mesh, "unresolved", None)
+    if unresolved is not None and len(unresolved) and len(pts):
+        d, _ = cKDTree(unresolved).query(pts)
+        pts, rad = pts[d > rad], rad[d > rad]
     return pts, rad

@@ -35,7 +35,13 @@ from ..surfaces.oracle import ImplicitSurface
 from ..topology import Snapshot, topology_report
 from ..topology.defects import ComplexDefects
 from ..topology.loops import LoopMemo
-from ..topology.pockets import UNBOUNDED_SIZE, Pockets, drop_pockets, pocket_reason
+from ..topology.pockets import (
+    UNBOUNDED_SIZE,
+    Pockets,
+    drop_pockets,
+    drop_specks,
+    pocket_reason,
+)
 from ..topology.proven_cells import ProofMemo
 from ..topology.relabel import Relabelled, relabel_pinches
 from ..topology.snapshot import confirm_defects
@@ -501,25 +507,29 @@ def _relabel(m: Mesher, plan: Plan, snap: Snapshot, t0: float) -> Relabelled | N
 
 
 def _pockets(m: Mesher, faces: np.ndarray) -> Pockets | None:
-    """Output components of a remeshed mesh smaller than the size bound
-    (without one, 1 % of the bounding radius), on input components that a
-    larger output component covers: ruled out by a closed input's topology,
-    and below the bound's resolution on an open or self-intersecting one."""
-    if m.clipped or not hasattr(m.surface, "input_components"):
+    """Output components smaller than the size bound (without one, 1 % of the
+    bounding radius) that are not kept: on a remeshed input, those on input
+    components that a larger output component covers (ruled out by a closed
+    input's topology, below the bound's resolution on an open or
+    self-intersecting one); on any input, the specks next to unresolved points."""
+    if m.clipped:
         return None
 
     def bound(p: np.ndarray) -> np.ndarray:
         s = m.criteria.sizing(p)
         return np.full(len(p), UNBOUNDED_SIZE * m.surface.radius) if s is None else s
 
-    p = drop_pockets(
-        m.vertices, faces, m.surface.input_components, bound, m.surface.topology_known
-    )
+    if hasattr(m.surface, "input_components"):
+        p = drop_pockets(
+            m.vertices, faces, m.surface.input_components, bound, m.surface.topology_known
+        )
+    else:
+        unresolved = np.concatenate(m.unresolved) if m.unresolved else np.zeros((0, 3))
+        p = drop_specks(m.vertices, faces, unresolved, bound)
     if p is not None:
         log.warning(
-            "output components smaller than the size bound were dropped: %d (%d faces), on "
-            "input components that a larger one covers: %s (%s)",
-            len(p.centres), p.faces, pocket_reason(p.ruled_out),
+            "output components smaller than the size bound were dropped: %d (%d faces), %s (%s)",
+            len(p.centres), p.faces, pocket_reason(p.ruled_out, p.specks),
             describe_regions(regions(p.centres, REGION_LINK * m.surface.radius)),
         )  # fmt: skip
     return p

@@ -13,8 +13,12 @@ self-intersecting input (its solid comes from the winding number) such a
 component may be a piece of that solid, but one smaller than the size bound,
 which the refinement cannot resolve there (its points are refused below the
 spacing floor); it is dropped as well, and the report says which reason
-applies. Only mesh inputs (:meth:`MeshSurface.input_components`) are pruned;
-volumes and expressions, whose small components can be real, never are.
+applies. Only mesh inputs (:meth:`MeshSurface.input_components`) are pruned
+so; volumes and expressions, whose small components can be real, lose only
+the specks of :func:`drop_specks`: components smaller than the size bound
+made entirely of vertices next to points the run left unresolved, where two
+solids of a union touch (at a point or along a line, the gap between their
+sheets goes below the floor) or the surface is singular.
 """
 
 from __future__ import annotations
@@ -23,12 +27,17 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .._mesh_components import labelled_components
 
 #: Without a size bound, components smaller than this times the bounding
 #: radius are candidates.
 UNBOUNDED_SIZE = 0.01
+
+#: A speck's vertices lie within this many times its extent of unresolved
+#: points (measured 1.0-1.8 on two unions of touching solids, RESULTS.md).
+SPECK_REACH = 2.0
 
 
 @dataclass
@@ -43,6 +52,8 @@ class Pockets:
     faces : number of faces dropped.
     ruled_out : whether the input's known topology rules them out (a closed,
         non-self-intersecting input), or they are only below the size bound.
+    specks : they are :func:`drop_specks`' (any input), not pockets on a
+        covered input component.
     """
 
     keep: np.ndarray
@@ -50,15 +61,57 @@ class Pockets:
     sizes: np.ndarray
     faces: int
     ruled_out: bool = True
+    specks: bool = False
 
 
-def pocket_reason(ruled_out: bool) -> str:
+@dataclass
+class _Components:
+    """The output's components: each face's and used vertex's label, and each
+    component's largest extent along an axis and centroid."""
+
+    count: int
+    face_label: np.ndarray
+    comp: np.ndarray  # (m,) the component of each used vertex
+    pts: np.ndarray  # (m, 3) the used vertices
+    extent: np.ndarray
+    centre: np.ndarray
+
+    @classmethod
+    def of(cls, vertices: np.ndarray, faces: np.ndarray) -> _Components | None:
+        """None with fewer than two components."""
+        count, face_label, vertex_label = labelled_components(
+            np.asarray(faces, np.int64), len(vertices)
+        )
+        if count < 2:
+            return None
+        used = np.flatnonzero(vertex_label >= 0)
+        comp, pts = vertex_label[used], vertices[used]
+        lo = np.full((count, 3), np.inf)
+        hi = np.full((count, 3), -np.inf)
+        np.minimum.at(lo, comp, pts)
+        np.maximum.at(hi, comp, pts)
+        centre = np.stack([np.bincount(comp, pts[:, a], count) for a in range(3)], axis=1)
+        centre /= np.bincount(comp, minlength=count)[:, None]
+        return cls(count, face_label, comp, pts, (hi - lo).max(axis=1), centre)
+
+
+def pocket_reason(ruled_out: bool, specks: bool = False) -> str:
     """Why pockets were dropped, for logs and the report."""
+    if specks:
+        return (
+            "every vertex of each lies next to points refused below the spacing floor (two "
+            "sheets closer than the floor, as where two solids of a union touch, or a "
+            "singular point), so no sample resolves them"
+        )
     if ruled_out:
-        return "the closed input's topology rules them out"
+        return (
+            "on input components that a larger output component covers: the closed "
+            "input's topology rules them out"
+        )
     return (
-        "the input is open or intersects itself, so they may be pieces of the solid its "
-        "winding number bounds, too small for the size bound to resolve"
+        "on input components that a larger output component covers: the input is open or "
+        "intersects itself, so they may be pieces of the solid its winding number bounds, "
+        "too small for the size bound to resolve"
     )
 
 
@@ -85,20 +138,17 @@ def drop_pockets(
     lie on, and its largest extent along an axis is below the size bound at
     its centroid.
     """
-    n = len(vertices)
-    count, face_label, vertex_label = labelled_components(np.asarray(faces, np.int64), n)
-    if count < 2:
+    c = _Components.of(vertices, faces)
+    if c is None:
         return None
-    used = np.flatnonzero(vertex_label >= 0)
-    comp = vertex_label[used]
-    pts = vertices[used]
-    lo = np.full((count, 3), np.inf)
-    hi = np.full((count, 3), -np.inf)
-    np.minimum.at(lo, comp, pts)
-    np.maximum.at(hi, comp, pts)
-    extent = (hi - lo).max(axis=1)
-    centre = np.stack([np.bincount(comp, pts[:, a], count) for a in range(3)], axis=1)
-    centre /= np.bincount(comp, minlength=count)[:, None]
+    count, face_label, comp, pts, extent, centre = (
+        c.count,
+        c.face_label,
+        c.comp,
+        c.pts,
+        c.extent,
+        c.centre,
+    )
     small = extent < size(centre)
     if not small.any():
         return None  # no candidate: the input is not queried
@@ -120,4 +170,55 @@ def drop_pockets(
         sizes=extent[pocket],
         faces=int((~keep).sum()),
         ruled_out=ruled_out,
+    )
+
+
+def drop_specks(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    unresolved: np.ndarray,
+    size: Callable[[np.ndarray], np.ndarray],
+) -> Pockets | None:
+    """The output components that are specks; None when there are none.
+
+    A component other than the largest (by faces) is a speck when its largest
+    extent along an axis is below the size bound at its centroid and each of
+    its vertices lies within :data:`SPECK_REACH` times that extent of one of
+    the ``unresolved`` points ``(k, 3)`` (refused below the spacing floor): a cell
+    or two of a gap thinner than the floor, sealed off by the parity rule or
+    the relabelling of pinched vertices.
+    """
+    if not len(unresolved):
+        return None
+    c = _Components.of(vertices, faces)
+    if c is None:
+        return None
+    count, face_label, comp, pts, extent, centre = (
+        c.count,
+        c.face_label,
+        c.comp,
+        c.pts,
+        c.extent,
+        c.centre,
+    )
+    nfaces = np.bincount(face_label, minlength=count)
+    small = extent < size(centre)
+    small[np.argmax(nfaces)] = False
+    if not small.any():
+        return None
+    at = np.flatnonzero(small[comp])
+    d, _ = cKDTree(unresolved).query(pts[at])
+    far = np.zeros(count, bool)
+    far[comp[at][d > SPECK_REACH * extent[comp[at]]]] = True
+    speck = small & ~far
+    if not speck.any():
+        return None
+    keep = ~speck[face_label]
+    return Pockets(
+        keep=keep,
+        centres=centre[speck],
+        sizes=extent[speck],
+        faces=int((~keep).sum()),
+        ruled_out=False,
+        specks=True,
     )

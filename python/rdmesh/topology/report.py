@@ -150,7 +150,8 @@ def topology_report(
     which faces differ from the restricted facets (pinched vertices made one
     disk); ``pockets`` which small components on a covered input component
     were dropped, and whether the input's known topology ruled them out
-    (``ruled_out``; otherwise the input is open or self-intersecting). With
+    (``ruled_out``; otherwise the input is open or self-intersecting), or
+    which specks next to unresolved points (``specks``, any input). With
     either, the mesh's closedness is read from ``faces`` and the
     topological-ball property is not claimed (the faces are not the
     restricted Delaunay facets).
@@ -285,13 +286,15 @@ def _relabelled(r: Relabelled, link: float) -> dict[str, Any]:
 
 def _pockets(p: Pockets, link: float) -> dict[str, Any]:
     """``report["pockets"]``: the output components dropped as pockets, and
-    whether the input's known topology rules them out (``ruled_out``)."""
+    whether the input's known topology rules them out (``ruled_out``), or
+    they are specks next to unresolved points (``specks``)."""
     return {
         "dropped": len(p.centres),
         "faces": p.faces,
         "largest": float(p.sizes.max()),
         "regions": regions(p.centres, link),
         "ruled_out": p.ruled_out,
+        "specks": p.specks,
     }
 
 
@@ -500,8 +503,8 @@ def _statement(rep: dict[str, Any]) -> str:
             why.append(
                 f"output components smaller than the size bound were dropped: "
                 f"{pockets['dropped']} (at most {pockets['largest']:.3g} across, "
-                f"{describe_regions(pockets['regions'])}), on input components that a larger "
-                f"output component covers: {pocket_reason(pockets['ruled_out'])}"
+                f"{describe_regions(pockets['regions'])}), "
+                f"{pocket_reason(pockets['ruled_out'], pockets['specks'])}"
             )
         if rep["unresolved"]:
             why.append(
