@@ -317,9 +317,11 @@ PYBIND11_MODULE(_rdt, m) {
       .def(
           "relabel_stars",
           [](RestrictedDelaunay& self, const IdArray& faces, const IdArray& ids,
-             const IdArray& cells, const InArray& cost, double max_seconds) {
-            if (!(max_seconds >= 0.0))
+             const IdArray& cells, const InArray& cost, std::optional<double> max_seconds) {
+            if (max_seconds && !(*max_seconds >= 0.0))
               throw std::invalid_argument("max_seconds must be at least 0");
+            const double seconds =
+                max_seconds.value_or(std::numeric_limits<double>::infinity());
             if (faces.ndim() != 2 || faces.shape(1) != 3)
               throw std::invalid_argument("faces must have shape (F, 3)");
             if (ids.ndim() != 1) throw std::invalid_argument("ids must have shape (k,)");
@@ -333,7 +335,7 @@ PYBIND11_MODULE(_rdt, m) {
             const std::vector<double> w = copy_of<double>(cost);
             rdmesh::StarRelabel r = locked(self, [&] {
               return self.relabel_stars(f.data(), f.size() / 3, v.data(), v.size(), q.data(),
-                                        w.data(), w.size(), max_seconds);
+                                        w.data(), w.size(), seconds);
             });
             return py::make_tuple(
                 to_numpy(r.faces, {static_cast<py::ssize_t>(r.faces.size() / 3), 3}),
@@ -341,13 +343,13 @@ PYBIND11_MODULE(_rdt, m) {
                 r.timed_out);
           },
           py::arg("faces"), py::arg("ids"), py::arg("cells"), py::arg("cost"),
-          py::arg("max_seconds") = std::numeric_limits<double>::infinity(),
+          py::arg("max_seconds") = py::none(),
           "Faces (F, 3) (outward) read as the boundary of a labelling of the Delaunay "
           "cells, made one disk around each of the vertices ids by moving groups of their "
           "incident cells to the other side: the group whose largest cost is least (cost "
           "(c,) of cells (c, 4); a cell without a cost, with a dummy vertex, or with a "
           "NaN or negative cost is never moved). Vertices go in id order; once max_seconds "
-          "have passed the rest are left as they are. Returns (faces (k, 3) outward, in "
+          "(None: no limit) have passed the rest are left as they are. Returns (faces (k, 3) outward, in "
           "their order then the added ones; (m, 4) sorted ids of each cell moved; whether "
           "max_seconds cut it short). Raises ValueError for ids out of range, a face "
           "repeating a vertex or given twice, or a negative max_seconds.")

@@ -260,7 +260,7 @@ class RestrictedDelaunay:
         ids: npt.ArrayLike,
         cells: npt.ArrayLike,
         cost: npt.ArrayLike,
-        max_seconds: float = ...,
+        max_seconds: float | None = None,
     ) -> tuple[
         npt.NDArray[np.int64],  # (k, 3) outward faces
         npt.NDArray[np.int64],  # (m, 4) sorted ids of the cells moved

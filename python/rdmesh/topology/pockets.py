@@ -35,9 +35,12 @@ from .._mesh_components import labelled_components
 #: radius are candidates.
 UNBOUNDED_SIZE = 0.01
 
-#: A speck's vertices lie within this many times its extent of unresolved
-#: points (measured 1.0-1.8 on two unions of touching solids, RESULTS.md).
-SPECK_REACH = 2.0
+#: A speck is smaller than this fraction of the size bound (ten times the
+#: topology floor; measured 0.02-0.04 on unions of touching solids, where a
+#: one-voxel speck of a volume meshed at one voxel is about 1), and its
+#: vertices lie within SPECK_REACH times its extent of unresolved points
+#: (measured 1.0-1.8 there; RESULTS.md).
+SPECK_SIZE, SPECK_REACH = 0.1, 2.0
 
 
 @dataclass
@@ -182,7 +185,8 @@ def drop_specks(
     """The output components that are specks; None when there are none.
 
     A component other than the largest (by faces) is a speck when its largest
-    extent along an axis is below the size bound at its centroid and each of
+    extent along an axis is below :data:`SPECK_SIZE` times the size bound at
+    its centroid and each of
     its vertices lies within :data:`SPECK_REACH` times that extent of one of
     the ``unresolved`` points ``(k, 3)`` (refused below the spacing floor): a cell
     or two of a gap thinner than the floor, sealed off by the parity rule or
@@ -202,7 +206,7 @@ def drop_specks(
         c.centre,
     )
     nfaces = np.bincount(face_label, minlength=count)
-    small = extent < size(centre)
+    small = extent < SPECK_SIZE * size(centre)
     small[np.argmax(nfaces)] = False
     if not small.any():
         return None
