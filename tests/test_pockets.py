@@ -272,3 +272,23 @@ def test_no_speck_without_unresolved_points_or_above_the_size_bound():
     assert drop_specks(v, f, near, lambda p: np.full(len(p), 0.1)) is None
     # The largest component is never a speck, however small and close.
     assert drop_specks(v[-4:], f[-4:] - (len(v) - 4), near, _size) is None
+
+
+def test_specks_are_dropped_from_functions_but_never_from_volumes():
+    """The same tiny component next to refused points: a speck of a function's
+    gap, but a volume's interpolant has real components that small."""
+    from types import SimpleNamespace
+
+    from rdmesh.refine.criteria import FacetCriteria
+
+    v, f = _sphere_and_tetrahedron([1.5, 0.0, 0.0])
+    near = [np.array([[1.505, 0.005, 0.005]])]
+    criteria = FacetCriteria(radius_bound=0.2)
+    fn = rdmesh.surfaces.sphere()
+    vol = rdmesh.VolumeSurface(np.ones((4, 4, 4)) * np.arange(4), isovalue=1.5)
+    for surface, dropped in ((fn, True), (vol, False)):
+        m = SimpleNamespace(
+            clipped=False, surface=surface, criteria=criteria, vertices=v, unresolved=near
+        )
+        p = mesher._pockets(m, f)
+        assert (p is not None and p.specks and p.faces == 4) if dropped else p is None

@@ -32,6 +32,7 @@ from ..sampling.fine_clearing import fine_clearing
 from ..sampling.grid import check_sphere_near
 from ..sampling.screen import clear_in_core, slope_bound
 from ..surfaces.oracle import ImplicitSurface
+from ..surfaces.volume import VolumeSurface
 from ..topology import Snapshot, topology_report
 from ..topology.defects import ComplexDefects
 from ..topology.loops import LoopMemo
@@ -511,7 +512,8 @@ def _pockets(m: Mesher, faces: np.ndarray) -> Pockets | None:
     bounding radius) that are not kept: on a remeshed input, those on input
     components that a larger output component covers (ruled out by a closed
     input's topology, below the bound's resolution on an open or
-    self-intersecting one); on any input, the specks next to unresolved points."""
+    self-intersecting one); on a function or an expression, the specks next
+    to unresolved points."""
     if m.clipped:
         return None
 
@@ -523,6 +525,10 @@ def _pockets(m: Mesher, faces: np.ndarray) -> Pockets | None:
         p = drop_pockets(
             m.vertices, faces, m.surface.input_components, bound, m.surface.topology_known
         )
+    elif isinstance(m.surface, VolumeSurface):
+        # A volume's interpolant has real components of any size next to the
+        # refused points (a node just above the isovalue): none is dropped.
+        return None
     else:
         unresolved = np.concatenate(m.unresolved) if m.unresolved else np.zeros((0, 3))
         p = drop_specks(m.vertices, faces, unresolved, bound)

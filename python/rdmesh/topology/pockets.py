@@ -14,11 +14,12 @@ component may be a piece of that solid, but one smaller than the size bound,
 which the refinement cannot resolve there (its points are refused below the
 spacing floor); it is dropped as well, and the report says which reason
 applies. Only mesh inputs (:meth:`MeshSurface.input_components`) are pruned
-so; volumes and expressions, whose small components can be real, lose only
-the specks of :func:`drop_specks`: components smaller than the size bound
-made entirely of vertices next to points the run left unresolved, where two
-solids of a union touch (at a point or along a line, the gap between their
-sheets goes below the floor) or the surface is singular.
+so; functions and expressions, whose small components can be real, lose only
+the specks of :func:`drop_specks`: components below a tenth of the size
+bound made entirely of vertices next to points the run left unresolved, where
+two solids of a union touch (at a point or along a line, the gap between
+their sheets goes below the floor) or the surface is singular. Volumes lose
+nothing: their interpolant has real components of any size there.
 """
 
 from __future__ import annotations
