@@ -152,6 +152,56 @@ def test_time_limit_message_says_what_happened():
     assert "stopped after 270.0s" in msg and "8.0s to build the mesh" in msg
 
 
+@given(
+    st.floats(1.0, 100.0),
+    st.floats(0.0, 1.0),
+    st.integers(0, 10**6),
+    st.floats(1e-6, 1e-3),
+    st.integers(1, 10**6),
+)
+def test_a_partial_last_round_fits_in_the_time_left(limit, used, n, per_point, k):
+    from rdmesh.refine.mesher import FINISH_SHARE, MIN_PARTIAL_ROUND, _fit
+
+    seconds = used * limit
+    fit = _fit(Budget(time_limit=limit), seconds, n, per_point, k)
+    assert _fit(Budget(), seconds, n, per_point, k) == 0
+    assert 0 <= fit < k
+    if fit:
+        # The part and the mesh's building after it end within the limit.
+        assert seconds + per_point * fit + FINISH_SHARE * per_point * (n + fit) <= limit
+        assert fit >= MIN_PARTIAL_ROUND[0] and fit >= MIN_PARTIAL_ROUND[1] * k
+
+
+def test_a_run_past_its_time_ends_with_a_partial_round_and_says_so(monkeypatch):
+    # As if each point cost 10 ms: the second round cannot end within the
+    # limit, so it inserts the points that fit, the mesh's building included.
+    from rdmesh.refine import mesher
+
+    cost = 0.01
+
+    def ahead(loop, last, done, n, k):
+        if not done:
+            return 0.0, 0.0, 0.0
+        return cost * k, mesher.FINISH_SHARE * cost * (n + k), cost
+
+    monkeypatch.setattr(mesher, "_ahead", ahead)
+    monkeypatch.setattr(mesher, "MIN_PARTIAL_ROUND", (1, 0.0))
+    sizes = []
+    surface = rdmesh.surfaces.torus()
+    with pytest.raises(rdmesh.BudgetExceeded, match="the last round inserted") as info:
+        rdmesh.mesh_surface(
+            surface,
+            radius_bound=surface.radius / 100,
+            time_limit=60.0,
+            progress=lambda d: sizes.append(d["vertices"]),
+        )
+    assert len(sizes) == 2
+    n, fit = sizes[0], sizes[1] - sizes[0]
+    assert fit > 0 and cost * (fit + mesher.FINISH_SHARE * (n + fit)) <= 60.0
+    assert f"inserted {fit} of its" in str(info.value)
+    assert not info.value.mesh.complete
+
+
 def test_sheet_gap_measures_the_thinnest_part():
     # A slab 0.02 thick (a flat box of 12 triangles): the gap is its thickness.
     corners = np.array(

@@ -70,6 +70,9 @@ MAX_REPAIRS, REPAIR_ANGLE = 3, 20.0
 #: costs about this share of the loop's time per vertex (0.07-0.13 on the
 #: torus, tanglecube and double torus, 2026-12-06): a time limit reserves it.
 FINISH_SHARE = 0.15
+#: A round predicted to end past the time limit inserts the part that fits
+#: when that is at least this many points and this share of the round.
+MIN_PARTIAL_ROUND = (1000, 0.1)
 
 #: Safety cap on rounds; smooth inputs need tens. Reaching it ends the run
 #: with the remaining points unresolved, like the spacing floor.
@@ -186,11 +189,6 @@ class Mesher:
         phases = Phases(plan.phases, floor, _boundary_placer(self, plan))
         self.pipeline.parity_floor = floor.topology if plan.parity else None
         cap = self.budget.max_vertices
-        # A round's cost (insert, update, stages, select) grows with the points
-        # it inserts: the next round is predicted from the loop's cost per point
-        # inserted or present (one round's is unstable: a test round that inserts
-        # a few points into a large mesh costs much per point), and at least as
-        # long as the last round.
         cycle_start, loop_start, done = t0, time.perf_counter(), 0
         while stop is None:
             self.rounds += 1
@@ -217,8 +215,11 @@ class Mesher:
             now, n = time.perf_counter(), len(self.vertices)
             ahead = _ahead(now - loop_start, now - cycle_start, done, n, len(batch))
             stop = self.budget.exceeded(n, now - t0, ahead[0], len(batch), ahead[1])
-            if stop:
+            fit = _fit(self.budget, now - t0, n, ahead[2], len(batch)) if stop else 0
+            if stop and not fit:
                 break
+            if fit:  # the time left holds part of the round: as many points as fit
+                batch, stages, stop = batch[:fit], stages[:fit], _partial(self.budget, fit, batch)
             cycle_start, done = now, done + len(batch)
             if cap is not None and len(self.vertices) + len(batch) > cap:
                 room = max(0, cap - len(self.vertices))
@@ -262,14 +263,38 @@ class Mesher:
         return self._snap
 
 
-def _ahead(loop: float, last: float, done: int, n: int, k: int) -> tuple[float, float]:
+def _ahead(loop: float, last: float, done: int, n: int, k: int) -> tuple[float, float, float]:
     """Predicted seconds of the next round of ``k`` points on ``n`` samples,
-    and of building the mesh after it, from the loop's ``loop`` seconds so far
-    (``done`` points inserted) and the ``last`` round's; (0, 0) before any round."""
+    of building the mesh after it, and per point, from the loop's ``loop``
+    seconds so far (``done`` points inserted) and the ``last`` round's; zeros
+    before any round. A round's cost (insert, update, stages, select) grows
+    with the points it inserts: it is predicted from the loop's cost per point
+    inserted or present (one round's is unstable: a test round that inserts a
+    few points into a large mesh costs much per point), and at least as long
+    as the last round."""
     if not done:
-        return 0.0, 0.0
+        return 0.0, 0.0, 0.0
     per_point = loop / max(done, n, 1)
-    return max(last, per_point * k), FINISH_SHARE * per_point * (n + k)
+    return max(last, per_point * k), FINISH_SHARE * per_point * (n + k), per_point
+
+
+def _partial(budget: Budget, fit: int, batch: np.ndarray) -> str:
+    """The stop message after a last round of ``fit`` of ``batch``'s points."""
+    return (
+        f"time_limit={budget.time_limit:g}s reached: the last round inserted {fit} of its "
+        f"{len(batch)} points, as many as were predicted to fit"
+    )
+
+
+def _fit(budget: Budget, seconds: float, n: int, per_point: float, k: int) -> int:
+    """How many of a round's ``k`` points fit in the time limit left after
+    ``seconds``, building the mesh included; 0 without a time limit, or when
+    fewer than :data:`MIN_PARTIAL_ROUND` (points, and share of the round) fit."""
+    if budget.time_limit is None or per_point <= 0:
+        return 0
+    left = budget.time_limit - seconds - FINISH_SHARE * per_point * n
+    fit = min(k - 1, int(left / (per_point * (1 + FINISH_SHARE))))
+    return fit if fit >= max(MIN_PARTIAL_ROUND[0], MIN_PARTIAL_ROUND[1] * k) else 0
 
 
 def _insert_stages(m: Mesher, points: np.ndarray, stages: np.ndarray) -> int:

@@ -71,7 +71,7 @@ class Pockets:
 @dataclass
 class _Components:
     """The output's components: each face's and used vertex's label, and each
-    component's largest extent along an axis and centroid."""
+    component's largest extent along an axis, centroid and face count."""
 
     count: int
     face_label: np.ndarray
@@ -79,6 +79,7 @@ class _Components:
     pts: np.ndarray  # (m, 3) the used vertices
     extent: np.ndarray
     centre: np.ndarray
+    faces: np.ndarray  # (count,) faces of each component
 
     @classmethod
     def of(cls, vertices: np.ndarray, faces: np.ndarray) -> _Components | None:
@@ -96,7 +97,21 @@ class _Components:
         np.maximum.at(hi, comp, pts)
         centre = np.stack([np.bincount(comp, pts[:, a], count) for a in range(3)], axis=1)
         centre /= np.bincount(comp, minlength=count)[:, None]
-        return cls(count, face_label, comp, pts, (hi - lo).max(axis=1), centre)
+        nfaces = np.bincount(face_label, minlength=count)
+        return cls(count, face_label, comp, pts, (hi - lo).max(axis=1), centre, nfaces)
+
+    def dropped(self, drop: np.ndarray, **why: bool) -> Pockets | None:
+        """The :class:`Pockets` of the components ``drop`` (bool), or None."""
+        if not drop.any():
+            return None
+        keep = ~drop[self.face_label]
+        return Pockets(
+            keep=keep,
+            centres=self.centre[drop],
+            sizes=self.extent[drop],
+            faces=int((~keep).sum()),
+            **why,
+        )
 
 
 def pocket_reason(ruled_out: bool, specks: bool = False) -> str:
@@ -145,36 +160,17 @@ def drop_pockets(
     c = _Components.of(vertices, faces)
     if c is None:
         return None
-    count, face_label, comp, pts, extent, centre = (
-        c.count,
-        c.face_label,
-        c.comp,
-        c.pts,
-        c.extent,
-        c.centre,
-    )
-    small = extent < size(centre)
+    small = c.extent < size(c.centre)
     if not small.any():
         return None  # no candidate: the input is not queried
-    nfaces = np.bincount(face_label, minlength=count)
     # The output components on each input component, largest first.
-    pairs = np.unique(np.stack([input_components(pts), comp], axis=1), axis=0)
-    order = np.lexsort((pairs[:, 1], -nfaces[pairs[:, 1]], pairs[:, 0]))
+    pairs = np.unique(np.stack([input_components(c.pts), c.comp], axis=1), axis=0)
+    order = np.lexsort((pairs[:, 1], -c.faces[pairs[:, 1]], pairs[:, 0]))
     pairs = pairs[order]
     first = np.r_[True, pairs[1:, 0] != pairs[:-1, 0]]
-    main = np.zeros(count, bool)
+    main = np.zeros(c.count, bool)
     main[pairs[first, 1]] = True
-    pocket = ~main & small
-    if not pocket.any():
-        return None
-    keep = ~pocket[face_label]
-    return Pockets(
-        keep=keep,
-        centres=centre[pocket],
-        sizes=extent[pocket],
-        faces=int((~keep).sum()),
-        ruled_out=ruled_out,
-    )
+    return c.dropped(~main & small, ruled_out=ruled_out)
 
 
 def drop_specks(
@@ -187,43 +183,22 @@ def drop_specks(
 
     A component other than the largest (by faces) is a speck when its largest
     extent along an axis is below :data:`SPECK_SIZE` times the size bound at
-    its centroid and each of
-    its vertices lies within :data:`SPECK_REACH` times that extent of one of
-    the ``unresolved`` points ``(k, 3)`` (refused below the spacing floor): a cell
-    or two of a gap thinner than the floor, sealed off by the parity rule or
-    the relabelling of pinched vertices.
+    its centroid and each of its vertices lies within :data:`SPECK_REACH`
+    times that extent of one of the ``unresolved`` points ``(k, 3)`` (refused
+    below the spacing floor): a cell or two of a gap thinner than the floor,
+    sealed off by the parity rule or the relabelling of pinched vertices.
     """
     if not len(unresolved):
         return None
     c = _Components.of(vertices, faces)
     if c is None:
         return None
-    count, face_label, comp, pts, extent, centre = (
-        c.count,
-        c.face_label,
-        c.comp,
-        c.pts,
-        c.extent,
-        c.centre,
-    )
-    nfaces = np.bincount(face_label, minlength=count)
-    small = extent < SPECK_SIZE * size(centre)
-    small[np.argmax(nfaces)] = False
+    small = c.extent < SPECK_SIZE * size(c.centre)
+    small[np.argmax(c.faces)] = False
     if not small.any():
         return None
-    at = np.flatnonzero(small[comp])
-    d, _ = cKDTree(unresolved).query(pts[at])
-    far = np.zeros(count, bool)
-    far[comp[at][d > SPECK_REACH * extent[comp[at]]]] = True
-    speck = small & ~far
-    if not speck.any():
-        return None
-    keep = ~speck[face_label]
-    return Pockets(
-        keep=keep,
-        centres=centre[speck],
-        sizes=extent[speck],
-        faces=int((~keep).sum()),
-        ruled_out=False,
-        specks=True,
-    )
+    at = np.flatnonzero(small[c.comp])
+    d, _ = cKDTree(unresolved).query(c.pts[at])
+    far = np.zeros(c.count, bool)
+    far[c.comp[at][d > SPECK_REACH * c.extent[c.comp[at]]]] = True
+    return c.dropped(small & ~far, ruled_out=False, specks=True)
