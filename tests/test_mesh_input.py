@@ -202,6 +202,31 @@ def test_a_run_past_its_time_ends_with_a_partial_round_and_says_so(monkeypatch):
     assert not info.value.mesh.complete
 
 
+def test_other_budgets_get_no_partial_round(monkeypatch):
+    # A round that would not fit in memory is not started, in part or whole,
+    # however much time is left.
+    from rdmesh.refine import mesher
+
+    monkeypatch.setattr(mesher, "MIN_PARTIAL_ROUND", (1, 0.0))
+    calls = []
+
+    def shortfall(n, k):  # room for the first round only
+        calls.append(n)
+        return "memory: too little" if len(calls) > 1 else None
+
+    monkeypatch.setattr(mesher, "shortfall", shortfall)
+    sizes = []
+    surface = rdmesh.surfaces.torus()
+    with pytest.raises(rdmesh.BudgetExceeded, match="memory: too little"):
+        rdmesh.mesh_surface(
+            surface,
+            radius_bound=surface.radius / 100,
+            time_limit=1000.0,
+            progress=lambda d: sizes.append(d["vertices"]),
+        )
+    assert len(sizes) == 1  # the round after the seeds' first was not started
+
+
 def test_sheet_gap_measures_the_thinnest_part():
     # A slab 0.02 thick (a flat box of 12 triangles): the gap is its thickness.
     corners = np.array(

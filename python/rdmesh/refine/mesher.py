@@ -215,7 +215,8 @@ class Mesher:
             now, n = time.perf_counter(), len(self.vertices)
             ahead = _ahead(now - loop_start, now - cycle_start, done, n, len(batch))
             stop = self.budget.exceeded(n, now - t0, ahead[0], len(batch), ahead[1])
-            fit = _fit(self.budget, now - t0, n, ahead[2], len(batch)) if stop else 0
+            timed = bool(stop) and stop.startswith("time_limit")
+            fit = _fit(self.budget, now - t0, n, ahead[2], len(batch)) if timed else 0
             if stop and not fit:
                 break
             if fit:  # the time left holds part of the round: as many points as fit
