@@ -163,8 +163,9 @@ def test_a_partial_last_round_fits_in_the_time_left(limit, used, n, per_point, k
     from rdmesh.refine.mesher import FINISH_SHARE, MIN_PARTIAL_ROUND, _fit
 
     seconds = used * limit
-    fit = _fit(Budget(time_limit=limit), seconds, n, per_point, k)
-    assert _fit(Budget(), seconds, n, per_point, k) == 0
+    ahead = (per_point * k, FINISH_SHARE * per_point * (n + k), per_point)
+    fit = _fit(Budget(time_limit=limit), seconds, n, ahead, k)
+    assert _fit(Budget(), seconds, n, ahead, k) == 0
     assert 0 <= fit < k
     if fit:
         # The part and the mesh's building after it end within the limit.

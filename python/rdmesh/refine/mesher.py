@@ -114,6 +114,10 @@ class Budget:
             return f"max_vertices={self.max_vertices} reached"
         return shortfall(vertices, points) if points else None
 
+    def left(self, seconds: float) -> float:
+        """Seconds left of the time limit after ``seconds`` (inf without one)."""
+        return np.inf if self.time_limit is None else self.time_limit - seconds
+
 
 class Mesher:
     """One meshing run: owns the core, the samples and the loop.
@@ -215,8 +219,7 @@ class Mesher:
             now, n = time.perf_counter(), len(self.vertices)
             ahead = _ahead(now - loop_start, now - cycle_start, done, n, len(batch))
             stop = self.budget.exceeded(n, now - t0, ahead[0], len(batch), ahead[1])
-            timed = bool(stop) and stop.startswith("time_limit")
-            fit = _fit(self.budget, now - t0, n, ahead[2], len(batch)) if timed else 0
+            fit = _fit(self.budget, now - t0, n, ahead, len(batch)) if stop else 0
             if stop and not fit:
                 break
             if fit:  # the time left holds part of the round: as many points as fit
@@ -287,14 +290,15 @@ def _partial(budget: Budget, fit: int, batch: np.ndarray) -> str:
     )
 
 
-def _fit(budget: Budget, seconds: float, n: int, per_point: float, k: int) -> int:
-    """How many of a round's ``k`` points fit in the time limit left after
-    ``seconds``, building the mesh included; 0 without a time limit, or when
-    fewer than :data:`MIN_PARTIAL_ROUND` (points, and share of the round) fit."""
-    if budget.time_limit is None or per_point <= 0:
+def _fit(budget: Budget, seconds: float, n: int, ahead: tuple, k: int) -> int:
+    """How many of a round's ``k`` points fit in the time left after
+    ``seconds``, building the mesh included, when time is what the round
+    lacks (``ahead``: :func:`_ahead`'s prediction); 0 otherwise, or when fewer
+    than :data:`MIN_PARTIAL_ROUND` (points, and share of the round) fit."""
+    per_point, left = ahead[2], budget.left(seconds)
+    if per_point <= 0 or ahead[0] + ahead[1] <= left:
         return 0
-    left = budget.time_limit - seconds - FINISH_SHARE * per_point * n
-    fit = min(k - 1, int(left / (per_point * (1 + FINISH_SHARE))))
+    fit = min(k - 1, int((left - FINISH_SHARE * per_point * n) / (per_point * (1 + FINISH_SHARE))))
     return fit if fit >= max(MIN_PARTIAL_ROUND[0], MIN_PARTIAL_ROUND[1] * k) else 0
 
 
@@ -516,8 +520,7 @@ def _relabel(m: Mesher, plan: Plan, snap: Snapshot, t0: float) -> Relabelled | N
     if not plan.parity or m.clipped:
         return None
     tri, centres, _ = snap.facets(0)
-    limit = m.budget.time_limit
-    seconds = np.inf if limit is None else t0 + limit - time.perf_counter()
+    seconds = m.budget.left(time.perf_counter() - t0)
     r = relabel_pinches(m.rdt, m.surface, m.vertices, tri, centres, snap.status, max(seconds, 0.0))
     if r is not None:
         log.warning(
