@@ -86,6 +86,7 @@ def test_holes_kept_with_the_winding_numbers_patches(monkeypatch):
         return np.zeros((0, 3), np.int64)
 
     monkeypatch.setattr(_mesh_holes.core, "fill_hole", no_cap)
+    monkeypatch.setattr(_mesh_holes, "TENT_HEIGHTS", ())
     v, f = _open_sphere((0.6,))
     surface = rdmesh.MeshSurface((v, f))
     assert len(surface.faces) == surface.input_face_count
@@ -312,3 +313,74 @@ def test_a_marching_cubes_rim_is_protected_and_its_holes_kept():
     )
     assert m.report["holes"]["cut"] and not m.report["holes"].get("filled_again")
     assert component_topology(m.faces, len(m.vertices)) == component_topology(f, len(v))
+
+
+def _sheet(n=30, kind="flat"):
+    """A square sheet [-1, 1]^2 on a grid of n x n vertices: flat (z = 0), or wavy
+    with its sides tilted opposite ways (z = 0.15 sin 3x cos 2y)."""
+    u, w = np.meshgrid(np.linspace(-1, 1, n), np.linspace(-1, 1, n), indexing="ij")
+    z = 0 * u if kind == "flat" else 0.15 * np.sin(3 * u) * np.cos(2 * w)
+    v = np.c_[u.ravel(), w.ravel(), z.ravel()]
+    i = np.arange(n * n).reshape(n, n)
+    a, b, c, d = i[:-1, :-1].ravel(), i[1:, :-1].ravel(), i[1:, 1:].ravel(), i[:-1, 1:].ravel()
+    return v, np.r_[np.c_[a, b, c], np.c_[a, c, d]]
+
+
+def _closed_and_oriented(faces, n):
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    key, rev = e[:, 0] * n + e[:, 1], e[:, 1] * n + e[:, 0]
+    return len(np.unique(key)) == len(key) and np.array_equal(np.sort(key), np.sort(rev))
+
+
+def test_a_tent_closes_a_rim_square_to_its_faces():
+    v, f = _sheet(12)
+    holes = _mesh_holes.find_holes(v, f)
+    loop, third = holes.rims[0], holes.thirds[0]
+    new, tri = _mesh_holes.tent(v, loop, third, len(v), -0.5)
+    assert len(new) == len(loop) + 1
+    assert _closed_and_oriented(np.concatenate([f, tri]), len(v) + len(new))
+    # The wall leaves the flat sheet along its normal, half a rim radius tall.
+    _, _, _, radius = _mesh_holes._rim_frame(v, loop)
+    top = new[:-1] - v[loop]
+    assert np.allclose(np.abs(top[:, 2]), 0.5 * radius, rtol=1e-6)
+    assert np.all(np.linalg.norm(top[:, :2], axis=1) < 0.15 * radius)  # the corners rounded
+
+
+@pytest.mark.parametrize("kind", ["flat", "wavy"])
+def test_an_open_sheet_is_remeshed_with_its_boundary(kind):
+    """A sheet's flat cap lies on it: it is closed by a tent instead, and the
+    remesh is a disk on the sheet whose boundary follows the sheet's."""
+    v, f = _sheet(40, kind)
+    surface = rdmesh.MeshSurface((v, f))
+    assert len(surface.holes.apexes) and surface.sign_method == "side"
+    assert np.abs(surface.holes.apexes[:, 2]).max() > 0.3  # it stands off the sheet
+    mesh = rdmesh.mesh_surface(surface, radius_bound=0.1, distance_bound=0.01)
+    assert mesh.complete
+    chi, bl = component_topology(mesh.faces, len(mesh.vertices))
+    assert list(chi) == [1] and list(bl) == [1]
+    assert mesh.report["holes"]["closed_by"] == "tents"
+    closest, face = surface.closest_points(mesh.vertices)
+    assert np.linalg.norm(closest - mesh.vertices, axis=1).max() < 1e-9
+    on_sheet = face < surface.input_face_count
+    rim = np.zeros(len(mesh.vertices), bool)
+    rim[_boundary_vertices(mesh.faces)] = True
+    assert np.all(on_sheet | rim)  # none on the tent (the rim is on both)
+    a, b = _rim_points(v, f)
+    rim_out = mesh.vertices[_boundary_vertices(mesh.faces)]
+    assert _distance_to_segments(rim_out, a, b).max() < 1e-9
+    # The rim is covered: its corners are output vertices.
+    corners = np.array([[x, y] for x in (-1, 1) for y in (-1, 1)])
+    gap = np.linalg.norm(rim_out[:, None, :2] - corners[None], axis=2).min(axis=0)
+    assert gap.max() < 1e-9
+    assert mesh.angles.min() >= 20.0
+
+
+def test_of_two_caps_that_cross_the_smaller_rims_is_dropped():
+    holes = _mesh_holes.Holes(
+        [np.arange(3), np.arange(3, 6)], [], np.zeros((4, 3), np.int64), np.array([0, 0, 1, 1])
+    )
+    size = np.array([1.0, 5.0])
+    # Cap triangles 1 (rim 0) and 2 (rim 1) cross; cap 3 (rim 1) crosses input face -4.
+    assert _mesh_holes._crossing_rims(holes, np.array([[1, 2]]), size).tolist() == [0]
+    assert _mesh_holes._crossing_rims(holes, np.array([[-4, 3]]), size).tolist() == [1]
+    assert _mesh_holes._crossing_rims(holes, np.array([[-4, -2]]), size).tolist() == []

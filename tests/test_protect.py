@@ -261,3 +261,23 @@ def test_mesh_3_relaxation_next_to_balls():
     # No weight: nothing relaxed.
     r = relaxed(corners, np.zeros((1, 3)))
     assert not (r.size | r.angle | r.distance | r.never).any()
+
+
+def test_protection_by_far_more_balls_than_the_curves_ask_for_is_refused():
+    """Two parallel curves a hair apart need balls of the gap's size all along:
+    past MAX_EXCESS times the balls their length asks for at the size bound,
+    protection is refused with a FeatureError naming the count, not run for
+    minutes; curves a tenth of the size bound apart are protected."""
+    from rdmesh.features.graph import FeatureError
+
+    def pair(gap):
+        return graph_of(
+            [np.array([[0.0, 0, 0], [1.0, 0, 0]]), np.array([[0, gap, 0], [1, gap, 0]])]
+        )
+
+    def size(x):
+        return np.full(len(x), 0.2)
+
+    check_invariants(protect(pair(0.02), size, 2.0))
+    with pytest.raises(FeatureError, match=r"\d+ balls .* more than 1000 times"):
+        protect(pair(1e-4), size, 2.0)

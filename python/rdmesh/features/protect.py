@@ -81,6 +81,10 @@ MAX_LOOPS = 40
 SAME_POINT = 1e-6
 #: Smallest spacing, times R: protection below it is refused.
 MIN_SIZE = 1e-6
+#: Protection needing more than this many times the balls that the curves'
+#: length asks for at the largest spacing is refused: curves or corners that
+#: close together (a hair-thin step along an edge) are no feature of this size.
+MAX_EXCESS = 1000
 
 Sizing = Callable[[np.ndarray], np.ndarray]
 
@@ -198,9 +202,11 @@ def protect(
         sheets = (*sheets, cKDTree(sheets[0]))
     state = _place(graph, dense, edge_size, sheets, distance, shrink or [], floor)
     boundary = np.array([c.source in boundary_sources for c in curves], bool)
+    length = sum(float(row_norms(np.diff(c.points, axis=0)).sum()) for c in curves)
     for loop in range(MAX_LOOPS):
         balls = _assemble(graph, state)
         balls.boundary, balls.loops = boundary, loop
+        _check_count(balls, MAX_EXCESS * max(length / h_max, 1.0))
         if not _repair(balls, state, graph):
             return balls
         if state.smallest() < floor:
@@ -216,6 +222,19 @@ def protect(
         "corners too close together, or meeting at too small an angle)",
         where=balls.centres[int(np.argmin(balls.radii))],
     )
+
+
+def _check_count(balls: Balls, most: float) -> None:
+    """Refuse protection by more than ``most`` balls (:data:`MAX_EXCESS`)."""
+    if len(balls.radii) > most:
+        i = int(np.argmin(balls.radii))
+        raise FeatureError(
+            f"cannot protect the feature curves: {len(balls.radii)} balls (radii down to "
+            f"{balls.radii[i]:.3g}, near {np.round(balls.centres[i], 9).tolist()}) are more "
+            f"than {MAX_EXCESS} times what the curves' length asks for at the size bound "
+            "(curves or corners far closer together than the size bound)",
+            where=balls.centres[i],
+        )
 
 
 @dataclass

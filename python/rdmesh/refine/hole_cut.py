@@ -75,6 +75,19 @@ class CapCut:
 MIXED = (0.1, 0.9)
 
 
+def _closed_by(holes) -> str:
+    """What closed the holes while meshing: caps, tents, the winding number's patches."""
+    tents = len(np.unique(holes.apex_rim))
+    caps = len(np.unique(holes.cap_rim)) - tents
+    patches = len(holes.rims) - caps - tents
+    used = [(k, what) for k, what in ((caps, "caps"), (tents, "tents")) if k]
+    used += [(patches, "the winding number")] if patches else []
+    if len(used) <= 1:
+        return used[0][1].removeprefix("the ") if used else "caps"
+    parts = [f"{what} ({k})" for k, what in used]
+    return ", ".join(parts[:-1]) + " and " + parts[-1]
+
+
 def cut_caps(surface, graph, balls, ball_ids, tri: np.ndarray, centres: np.ndarray):
     """The facets ``tri`` (sample ids) to keep, or None when ``surface`` keeps no holes.
 
@@ -83,12 +96,7 @@ def cut_caps(surface, graph, balls, ball_ids, tri: np.ndarray, centres: np.ndarr
     holes = getattr(surface, "holes", None)
     if holes is None or not holes.curves:
         return None
-    capped = len(np.unique(holes.cap_rim))
-    closed_by = (
-        "caps" if capped == len(holes.rims)
-        else "winding number" if capped == 0
-        else f"caps ({capped}) and the winding number ({len(holes.rims) - capped})"
-    )  # fmt: skip
+    closed_by = _closed_by(holes)
     if balls is None or graph is None:  # the rims' protection failed
         return CapCut(np.ones(len(tri), bool), len(holes.rims), 0, 0, 0, closed_by, False,
                       holes.trimmed)  # fmt: skip

@@ -6,14 +6,17 @@ closed-mesh oracle applies (the angle-weighted pseudo-normal's sign, exact
 crossings, the Lipschitz clearing), and protects each rim as a feature curve
 (source :data:`RIM_SOURCE`). The remesh of the capped mesh then has an edge
 chain along every rim, and :mod:`rdmesh.refine.hole_cut` cuts the caps' part
-off along those chains. A hole whose cap would cross the mesh is closed by
-the winding number's patch instead, which the cut tells apart from the faces
-by its facets' distance to them.
+off along those chains. A hole whose cap would cross the mesh, or whose cap
+lies on the mesh (an open sheet: its rim's cap is the sheet's flat twin), is
+closed by a tent instead (:func:`tent`: a wall square to the faces on the rim,
+and a cone over it), and where no tent clears the mesh either, by the winding
+number's patch, which the cut tells apart from the faces by its facets'
+distance to them.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -34,6 +37,11 @@ RIM_TURN = 60.0
 RIM_STEP = 0.1
 #: ``holes=`` choices of :class:`~rdmesh.MeshSurface`.
 HOLES = ("keep", "fill")
+#: Heights of the walls of the tents tried over a hole whose cap fails, in turn,
+#: in radii of its rim (negative: behind the faces next to it).
+TENT_HEIGHTS = (-0.5, 0.5, -1.0, 1.0, -0.25, 0.25)
+#: The height of a tent's cone over its wall, in radii of its rim.
+TENT_CONE = 0.5
 
 
 @dataclass
@@ -48,9 +56,20 @@ class Holes:
         The rims as polylines, split at corners (turns of :data:`RIM_TURN` or
         more); a closed loop repeats its first point.
     caps : (c, 3) int64
-        Triangles over the rims (no new vertices), oriented as the faces.
+        Triangles over the rims, oriented as the faces; vertex ids from
+        ``base`` are the tents' vertices.
     cap_rim : (c,) int64
         The rim each cap triangle closes.
+    thirds : list of (k,) int64
+        For each rim, the third vertex of the face on each of its edges.
+    base : int
+        The input's vertex count: ``apexes[j]`` is vertex ``base + j``.
+    apexes : (t, 3) float64
+        The tents' vertices (:func:`tent`).
+    apex_rim : (t,) int64
+        The rim each of them closes.
+    tries : (r,) int64
+        How many tents each rim has tried.
     trimmed : (int, int)
         The input's faces dropped and added at its rims' slivers (:func:`trim_rims`).
     """
@@ -59,15 +78,50 @@ class Holes:
     curves: list[np.ndarray]
     caps: np.ndarray
     cap_rim: np.ndarray
+    thirds: list[np.ndarray] = field(default_factory=list)
+    base: int = 0
+    apexes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    apex_rim: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    tries: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     trimmed: tuple[int, int] = (0, 0)
 
+    @property
+    def capless(self) -> np.ndarray:
+        """The rims with neither cap nor tent (closed by the winding number)."""
+        return np.setdiff1d(np.arange(len(self.rims)), self.cap_rim)
+
     def drop_caps(self, faces: np.ndarray) -> int:
-        """Forget the caps of the rims that the cap triangles ``faces`` (indices
-        into ``caps``) close; how many rims lost their cap."""
-        bad = np.unique(self.cap_rim[faces])
-        keep = ~np.isin(self.cap_rim, bad)
-        self.caps, self.cap_rim = self.caps[keep], self.cap_rim[keep]
-        return len(bad)
+        """Forget the caps (and tents) of the rims that the cap triangles ``faces``
+        (indices into ``caps``) close; how many rims lost their cap."""
+        return self.drop_rims(np.unique(self.cap_rim[faces]))
+
+    def drop_rims(self, rims: np.ndarray) -> int:
+        """Forget the caps (and tents) of ``rims``; how many there were."""
+        keep = ~np.isin(self.cap_rim, rims)
+        stay = ~np.isin(self.apex_rim, rims)
+        # Tent vertex ids shift down over those dropped before them.
+        new_id = (
+            np.arange(self.base + len(stay)) - np.r_[np.zeros(self.base, int), np.cumsum(~stay)]
+        )
+        self.caps, self.cap_rim = new_id[self.caps[keep]], self.cap_rim[keep]
+        self.apexes, self.apex_rim = self.apexes[stay], self.apex_rim[stay]
+        return len(rims)
+
+    def add_tents(self, vertices: np.ndarray, rims: np.ndarray) -> None:
+        """Close each of ``rims`` (without caps) by its :func:`tent` at the next of
+        :data:`TENT_HEIGHTS` (``tries`` counts them)."""
+        for r in rims.tolist():
+            first, height = self.base + len(self.apexes), TENT_HEIGHTS[self.tries[r]]
+            self.tries[r] += 1
+            new, tri = tent(vertices, self.rims[r], self.thirds[r], first, height)
+            self.apexes = np.concatenate([self.apexes, new])
+            self.apex_rim = np.r_[self.apex_rim, np.full(len(new), r)]
+            self.caps = np.concatenate([self.caps, tri])
+            self.cap_rim = np.r_[self.cap_rim, np.full(len(tri), r)]
+
+    def largest_rim(self, vertices: np.ndarray) -> int:
+        """The rim enclosing the largest area (by its vector area)."""
+        return int(np.argmax([_rim_frame(vertices, r)[2] for r in self.rims]))
 
 
 def rim_half_edges(faces: np.ndarray) -> np.ndarray:
@@ -209,7 +263,79 @@ def find_holes(vertices: np.ndarray, faces: np.ndarray) -> Holes | None:
     third[half[:, 0]] = half[:, 2]  # of the rim edge (a, b), by a
     caps = [cap(vertices, loop, third[loop]) for loop in loops]
     rim = np.concatenate([np.full(len(c), k) for k, c in enumerate(caps)]).astype(np.int64)
-    return Holes(loops, curves, np.concatenate(caps), rim)
+    thirds = [third[loop] for loop in loops]
+    return Holes(loops, curves, np.concatenate(caps), rim, thirds, base=len(vertices))
+
+
+def _rim_frame(
+    vertices: np.ndarray, loop: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """A rim's centre (the mean of its edges' midpoints, by length), the unit
+    normal of its vector area (along the faces' normals next to it), that area
+    and the rim's radius (root mean square distance of its vertices to the centre)."""
+    p = vertices[loop]
+    q = np.roll(p, -1, axis=0)
+    length = row_norms(q - p)
+    centre = ((p + q) * (0.5 * length)[:, None]).sum(axis=0) / max(float(length.sum()), 1e-300)
+    vec = 0.5 * np.cross(p - centre, q - centre).sum(axis=0)
+    area = float(np.linalg.norm(vec))
+    radius = float(np.sqrt(np.mean(np.sum((p - centre) ** 2, axis=1))))
+    return centre, vec / max(area, 1e-300), area, radius
+
+
+def tent(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray, first: int, height: float):
+    """A tent over one rim: a wall from the rim to a smooth loop ``height`` rim radii
+    off it, square to the faces on the rim (``third``: their third vertices; negative
+    heights behind them), and a cone over that loop to a point :data:`TENT_CONE`
+    rim radii beyond. Returns the new vertices ``(k + 1, 3)``, numbered from
+    ``first``, and the triangles, oriented against the rim's half-edges as
+    :func:`cap`'s. An open sheet's flat cap lies on the sheet; a tent stands off
+    it, and its smooth top keeps a scan's jagged rim from folding the cone."""
+    p, q = vertices[loop], vertices[np.roll(loop, -1)]
+    n = np.cross(q - p, vertices[third] - p)  # the faces' normals, by rim edge
+    n /= np.maximum(row_norms(n), 1e-300)[:, None]
+    at = _smooth(n + np.roll(n, 1, axis=0))  # by rim vertex
+    at /= np.maximum(row_norms(at), 1e-300)[:, None]
+    _, normal, _, radius = _rim_frame(vertices, loop)
+    top = _smooth(p) + height * radius * at
+    apex = top.mean(axis=0) + np.copysign(TENT_CONE, height) * radius * normal
+    k = len(loop)
+    i, j = np.arange(k), np.roll(np.arange(k), -1)
+    up, tip = first + i, first + k
+    tri = np.concatenate([
+        np.c_[loop[j], loop[i], up[i]],
+        np.c_[loop[j], up[i], up[j]],
+        np.c_[up[j], up[i], np.full(k, tip)],
+    ])  # fmt: skip
+    return np.concatenate([top, apex[None]]), tri.astype(np.int64)
+
+
+#: A tent closes a rim whose faces on it turn less than this from the rim's
+#: normal (degrees; the median over its edges): the rim of a sheet.
+TENT_TURN = 60.0
+
+
+def _faces_along_normal(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray) -> bool:
+    """Whether the faces on a rim face along its normal (:data:`TENT_TURN`): a
+    tent's wall, square to them, then stands off the sheet; on a rim whose faces
+    are a skirt square to the sheet it would lie along the sheet."""
+    p, q = vertices[loop], vertices[np.roll(loop, -1)]
+    n = np.cross(q - p, vertices[third] - p)
+    n /= np.maximum(row_norms(n), 1e-300)[:, None]
+    _, normal, area, _ = _rim_frame(vertices, loop)
+    return area > 0 and float(np.median(n @ normal)) >= np.cos(np.radians(TENT_TURN))
+
+
+#: A tent's top follows its rim's lowest harmonics only (:func:`_smooth`).
+TENT_HARMONICS = 6
+
+
+def _smooth(x: np.ndarray) -> np.ndarray:
+    """Values ``(k, 3)`` around a closed loop with their harmonics above
+    :data:`TENT_HARMONICS` removed."""
+    c = np.fft.rfft(x, axis=0)
+    c[TENT_HARMONICS + 1 :] = 0
+    return np.fft.irfft(c, n=len(x), axis=0)
 
 
 def _without_steps(vertices: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
@@ -254,36 +380,91 @@ def with_caps(
 
 
 def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
-    """Append the caps over ``surface.holes`` to ``surface.faces`` and build its
-    queries (``_start_queries``), without the caps that cross the mesh or
-    share an edge with it (those holes are closed by the winding number's
-    patches); returns the faces' doubled areas.
+    """Append the caps over ``surface.holes`` to ``surface.faces`` (and the tents'
+    apexes to ``surface.vertices``) and build its queries (``_start_queries``);
+    returns the faces' doubled areas.
+
+    A cap that crosses the mesh or shares an edge with it is dropped (of two
+    caps that cross, the smaller rim's), and so is the largest rim's cap when
+    the capped mesh encloses no volume (an open sheet). Those holes get a
+    :func:`tent` instead, at the first of :data:`TENT_HEIGHTS` whose tent
+    crosses nothing; the holes that none clears are closed by the winding
+    number's patches.
 
     Raises
     ------
     rdmesh.MeshInputError
-        The capped mesh encloses no volume (a flat patch).
+        The closed mesh still encloses no volume.
     """
+    holes = surface.holes
+    if holes is None or not holes.rims:
+        surface._start_queries(radius)
+        return norms
     v, inputs = surface.vertices, (surface.faces, norms, surface._normals)
     n = len(inputs[0])
-    if surface.holes is not None and len(surface.holes.caps):
+
+    def build() -> tuple[np.ndarray, np.ndarray]:
+        """Close the mesh with the holes' caps; the rims whose caps cross something."""
+        surface.vertices = np.concatenate([v, holes.apexes]) if len(holes.apexes) else v
+        surface.faces, area, surface._normals = with_caps(*inputs, surface.vertices, holes)
+        surface._start_queries(radius)
+        pairs = surface._core.self_intersections().reshape(-1, 2)
+        return area, _crossing_rims(holes, np.sort(pairs, axis=1) - n, rim_size)
+
+    rim_size = np.array([row_norms(v[np.roll(r, -1)] - v[r]).sum() for r in holes.rims])
+
+    if len(holes.caps):
         # A cap edge that is already an edge of the mesh (a neck between two
         # rim vertices) would be in three faces: that hole keeps no cap.
-        surface.holes.drop_caps(_overfull(np.concatenate([inputs[0], surface.holes.caps]), n))
-    surface.faces, norms, surface._normals = with_caps(*inputs, v, surface.holes)
-    if len(surface.faces) > n:
-        volume = signed_volume(v, surface.faces)  # positive: with_caps turned them out
-        if is_flat(volume, 0.5 * float(norms.sum())):
-            raise MeshInputError(
-                "the mesh is too open to tell inside from outside: closed by caps over its "
-                f"{len(surface.holes.rims)} holes it encloses no volume (a flat patch?)"
-            )
-    surface._start_queries(radius)
-    crossing = surface._core.self_intersections() if len(surface.faces) > n else ()
-    if len(crossing) and surface.holes.drop_caps(crossing[crossing >= n] - n):
-        surface.faces, norms, surface._normals = with_caps(*inputs, v, surface.holes)
-        surface._start_queries(radius)
-    return norms
+        holes.drop_caps(_overfull(np.concatenate([inputs[0], holes.caps]), n))
+    holes.tries = np.zeros(len(holes.rims), np.int64)
+    for r, (loop, third) in enumerate(zip(holes.rims, holes.thirds, strict=True)):
+        if not _faces_along_normal(v, loop, third):
+            holes.tries[r] = len(TENT_HEIGHTS)  # no tent: it would lie along them
+    flat_seen = False
+    while True:
+        todo = holes.capless
+        # Crossings are found on closed meshes only: once a rim has no tent
+        # left to try, no other tent can be tested either.
+        if len(todo) and (holes.tries[todo] >= len(TENT_HEIGHTS)).any():
+            area, _ = build()
+            break
+        holes.add_tents(v, todo)
+        area, crossing = build()
+        if holes.drop_rims(crossing):
+            continue
+        if flat_seen or not _encloses_nothing(surface, area, n):
+            break
+        flat_seen = True  # an open sheet: its largest rim's cap lies on it
+        holes.drop_rims(np.array([holes.largest_rim(v)]))
+    if _encloses_nothing(surface, area, n):
+        raise MeshInputError(
+            "the mesh is too open to tell inside from outside: closed over its "
+            f"{len(holes.rims)} holes it encloses no volume (a flat patch?)"
+        )
+    return area
+
+
+def _crossing_rims(holes: Holes, pairs, size: np.ndarray) -> np.ndarray:
+    """The rims to uncap for the crossing face ``pairs`` ``(k, 2)`` (cap triangles
+    from 0, the input's faces negative): a cap crossing the input, and of two
+    caps crossing, the smaller rim's (its length ``size``), so that a scan's
+    specks do not uncap its outer rim."""
+    pairs = pairs[pairs[:, 1] >= 0]  # not two of the input's faces
+    if not len(pairs):
+        return np.zeros(0, np.int64)
+    rim = np.where(pairs >= 0, holes.cap_rim[np.maximum(pairs, 0)], -1)
+    other = pairs[:, 0] >= 0
+    smaller = np.where(size[rim[:, 0]] <= size[rim[:, 1]], rim[:, 0], rim[:, 1])
+    return np.unique(np.where(other, smaller, rim[:, 1]))
+
+
+def _encloses_nothing(surface, area: np.ndarray, n: int) -> bool:
+    """Whether the mesh closed by caps (``surface.faces`` beyond ``n``) is flat."""
+    if len(surface.faces) == n:
+        return False
+    volume = signed_volume(surface.vertices, surface.faces)  # with_caps turned them out
+    return bool(is_flat(volume, 0.5 * float(area.sum())))
 
 
 def _overfull(f: np.ndarray, n: int) -> np.ndarray:
