@@ -95,6 +95,23 @@ def folded(h: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
     return _mc(f, (-1.15,) * 3, (1.15,) * 3, h)
 
 
+def height_sheet(kind: str, n: int = 120) -> tuple[np.ndarray, np.ndarray]:
+    """An open sheet over a grid of ``n`` x ``n`` vertices on [-1, 1]^2: ``"wavy"``
+    (z = 0.15 sin 3x cos 2y, its sides tilted opposite ways) or ``"terrain"``
+    (a few hills and a valley on a 2:1 rectangle)."""
+    u, w = np.meshgrid(np.linspace(-1, 1, n), np.linspace(-1, 1, n), indexing="ij")
+    if kind == "wavy":
+        z = 0.15 * np.sin(3 * u) * np.cos(2 * w)
+    else:
+        w = 0.5 * w
+        hills = ((0.3, 0.2, 0.25, 0.3), (-0.4, -0.1, 0.15, 0.2), (0.5, -0.3, 0.2, -0.12))
+        z = sum(a * np.exp(-((u - x) ** 2 + (w - y) ** 2) / s**2) for x, y, s, a in hills)
+    v = np.c_[u.ravel(), w.ravel(), z.ravel()]
+    i = np.arange(n * n).reshape(n, n)
+    a, b, c, d = i[:-1, :-1].ravel(), i[1:, :-1].ravel(), i[1:, 1:].ravel(), i[:-1, 1:].ravel()
+    return v, np.r_[np.c_[a, b, c], np.c_[a, c, d]].astype(np.int64)
+
+
 def cut_holes(v: np.ndarray, f: np.ndarray, k: int = 3, frac: float = 0.03):
     """``(v, f)`` without the faces within ``frac`` of the diagonal of ``k`` of its
     vertices (evenly spaced in index order): an open scan with ``k`` holes. Both
@@ -150,9 +167,10 @@ def mesh_inputs() -> dict[str, tuple[np.ndarray, np.ndarray] | str]:
 def more_mesh_inputs() -> dict[str, tuple[np.ndarray, np.ndarray] | str]:
     """More real meshes (``--inputs more``): pymeshlab's other sample meshes (a
     low-poly cow whose head's faces cross, an airplane, a 12-triangle cube, a
-    10k bunny with its base open, a range scan) and nilearn's fsaverage5
+    10k bunny with its base open, a range scan), nilearn's fsaverage5
     surfaces (white matter, pial, inflated, sphere; both hemispheres: the right
-    white and pial surfaces intersect themselves)."""
+    white and pial surfaces intersect themselves) and two open sheets
+    (:func:`height_sheet`)."""
     out: dict = {}
     try:
         import pymeshlab
@@ -182,6 +200,8 @@ def more_mesh_inputs() -> dict[str, tuple[np.ndarray, np.ndarray] | str]:
                 )  # fmt: skip
     except ImportError:
         out["fsaverage5"] = "nilearn not installed"
+    out["open sheet, wavy (synthetic)"] = height_sheet("wavy")
+    out["open sheet, terrain (synthetic)"] = height_sheet("terrain")
     return out
 
 
