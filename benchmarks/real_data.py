@@ -278,15 +278,16 @@ def hausdorff(v, f, ref, n: int = 20000, seed: int = 0) -> float:
         u, w = rng.random((2, n))
         flip = u + w > 1
         u[flip], w[flip] = 1 - u[flip], 1 - w[flip]
-        return np.concatenate([a[i] + u[:, None] * (b[i] - a[i]) + w[:, None] * (c[i] - a[i]), v])
+        inside = a[i] + u[:, None] * (b[i] - a[i]) + w[:, None] * (c[i] - a[i])
+        return np.concatenate([inside, v[np.unique(f)]])  # the faces' vertices too
 
-    out = rdmesh.MeshSurface((v, f), holes="fill")
+    # Unsigned distances (no inside needed: an open sheet has none), to the
+    # input's faces, not to what closed its holes.
     faces = input_faces(ref)
-    if len(faces) < len(ref.faces):  # distances to the input, not to its caps
-        ref = rdmesh.MeshSurface((ref.vertices, faces), holes="fill")
-    d1 = np.linalg.norm(samples(v, f) - ref.closest_points(samples(v, f))[0], axis=1).max()
-    s2 = samples(ref.vertices, faces)
-    d2 = np.linalg.norm(s2 - out.closest_points(s2)[0], axis=1).max()
+    to_out = rdmesh.core.MeshDistance(v, f, side=False)
+    to_ref = rdmesh.core.MeshDistance(ref.vertices, faces, side=False)
+    d1 = to_ref.query(samples(v, f))[0].max()
+    d2 = to_out.query(samples(ref.vertices, faces))[0].max()
     return float(max(d1, d2))
 
 

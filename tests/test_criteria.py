@@ -167,6 +167,25 @@ def test_distance_criterion():
         assert got.tolist() == [bad]
 
 
+def test_slack_raises_the_size_and_distance_bounds_to_its_share():
+    """Where the output is cut off afterwards (a tent's facets), the size bound
+    is at least a * d and the distance bound at least b * d."""
+    corners, cc, n = _facet(60, 60, scale=1.0)
+    centre = cc + 0.03 * n
+    r = np.linalg.norm(centre - corners[:, 0], axis=1)
+    crit = FacetCriteria(0, radius_bound=0.5 * r[0], distance_bound=0.01)
+    assert crit.bad(corners, centre, r).tolist() == [True]
+    assert crit.bad(corners, centre, r, slack=(np.array([0.0]), 0.5, 0.05)).tolist() == [True]
+    roomy = (np.array([4.0 * r[0]]), 0.5, 0.05)  # size 2 r, distance 0.2 r
+    assert crit.bad(corners, centre, r, slack=roomy).tolist() == [False]
+    # Each bound alone: too little room for the size, then for the distance.
+    assert crit.bad(corners, centre, r, slack=(np.array([1.9 * r[0]]), 0.5, 1.0)).tolist() == [
+        True
+    ]
+    far = (np.array([4.0 * r[0]]), 0.5, 0.2 * 0.03 / r[0])
+    assert crit.bad(corners, centre, r, slack=far).tolist() == [True]
+
+
 def test_criteria_on_many_facets_is_elementwise():
     rng = np.random.default_rng(3)
     corners = _random_triangles(500, seed=4)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import rdmesh
 import trimesh
-from rdmesh.surfaces import _mesh_holes
+from rdmesh.surfaces import _mesh_holes, _mesh_tents
 from rdmesh.topology.complex import component_topology
 
 
@@ -336,11 +336,11 @@ def test_a_tent_closes_a_rim_square_to_its_faces():
     v, f = _sheet(12)
     holes = _mesh_holes.find_holes(v, f)
     loop, third = holes.rims[0], holes.thirds[0]
-    new, tri = _mesh_holes.tent(v, loop, third, len(v), -0.5)
+    new, tri = _mesh_tents.tent(v, loop, third, len(v), -0.5)
     assert len(new) == len(loop) + 1
     assert _closed_and_oriented(np.concatenate([f, tri]), len(v) + len(new))
     # The wall leaves the flat sheet along its normal, half a rim radius tall.
-    _, _, _, radius = _mesh_holes._rim_frame(v, loop)
+    _, _, _, radius = _mesh_tents.rim_frame(v, loop)
     top = new[:-1] - v[loop]
     assert np.allclose(np.abs(top[:, 2]), 0.5 * radius, rtol=1e-6)
     assert np.all(np.linalg.norm(top[:, :2], axis=1) < 0.15 * radius)  # the corners rounded
@@ -384,3 +384,29 @@ def test_of_two_caps_that_cross_the_smaller_rims_is_dropped():
     assert _mesh_holes._crossing_rims(holes, np.array([[1, 2]]), size).tolist() == [0]
     assert _mesh_holes._crossing_rims(holes, np.array([[-4, 3]]), size).tolist() == [1]
     assert _mesh_holes._crossing_rims(holes, np.array([[-4, -2]]), size).tolist() == []
+
+
+def test_a_tent_is_meshed_coarsely_away_from_the_rim(monkeypatch):
+    """The remesh of a tent is cut off, so its facets may grow with their distance
+    from the input: far fewer facets are cut than with the input's bounds, and
+    the part kept is a disk of about as many vertices."""
+    from rdmesh.refine import pipeline
+
+    monkeypatch.setenv("RDMESH_CHECK", "0")  # its per-round checks would take minutes here
+    v, f = _sheet(40, "wavy")
+
+    def run():
+        mesh = rdmesh.mesh_surface(
+            rdmesh.MeshSurface((v, f)), radius_bound=0.02, distance_bound=0.002
+        )
+        return mesh, mesh.report["holes"]["faces_cut"]
+
+    coarse, cut = run()
+    monkeypatch.setattr(pipeline, "TENT_GRADE", 0.0)
+    monkeypatch.setattr(pipeline, "TENT_DISTANCE_GRADE", 0.0)
+    fine, cut_fine = run()
+    assert cut < 0.6 * cut_fine
+    assert abs(len(coarse.vertices) - len(fine.vertices)) <= 0.05 * len(fine.vertices)
+    for mesh in (coarse, fine):
+        chi, bl = component_topology(mesh.faces, len(mesh.vertices))
+        assert list(chi) == [1] and list(bl) == [1] and mesh.complete

@@ -96,6 +96,7 @@ class FacetCriteria:
         radii: np.ndarray,
         angle_exempt: np.ndarray | None = None,
         weights: np.ndarray | None = None,
+        slack: tuple[np.ndarray, float, float] | None = None,
     ) -> np.ndarray:
         """Which facets fail a criterion.
 
@@ -113,6 +114,10 @@ class FacetCriteria:
             squared; samples: 0). Facets next to balls get Mesh_3's
             relaxation (:func:`relaxed`); the distance is measured from the
             weighted circumcentre.
+        slack : ((k,) float, float, float), optional
+            ``(d, a, b)``: the size bound is at least ``a d`` and the distance
+            bound at least ``b d`` (where the output is cut off afterwards, ``d``
+            from what it keeps: :func:`rdmesh.surfaces._mesh_tents.tent_clearance`).
 
         Returns
         -------
@@ -139,6 +144,8 @@ class FacetCriteria:
             bad |= skinny
         psi = self.sizing(centres)
         if psi is not None:
+            if slack is not None:
+                psi = np.maximum(psi, slack[1] * slack[0])
             large = radii > psi
             bad |= large if skip is None else large & ~skip.size
         if self.distance_bound is not None:
@@ -147,7 +154,10 @@ class FacetCriteria:
                 if skip is None
                 else weighted_circumcentres(corners, weights)
             )
-            far = np.linalg.norm(cc - centres, axis=1) > self.distance_bound
+            bound = self.distance_bound
+            if slack is not None:
+                bound = np.maximum(bound, slack[2] * slack[0])
+            far = np.linalg.norm(cc - centres, axis=1) > bound
             bad |= far if skip is None else far & ~skip.distance
         if skip is not None:
             bad &= ~skip.never

@@ -8,8 +8,8 @@ crossings, the Lipschitz clearing), and protects each rim as a feature curve
 chain along every rim, and :mod:`rdmesh.refine.hole_cut` cuts the caps' part
 off along those chains. A hole whose cap would cross the mesh, or whose cap
 lies on the mesh (an open sheet: its rim's cap is the sheet's flat twin), is
-closed by a tent instead (:func:`tent`: a wall square to the faces on the rim,
-and a cone over it), and where no tent clears the mesh either, by the winding
+closed by a tent instead (:mod:`._mesh_tents`: a wall square to the faces on
+the rim, and a cone over it), and where no tent clears the mesh either, by the winding
 number's patch, which the cut tells apart from the faces by its facets'
 distance to them.
 """
@@ -24,8 +24,9 @@ from .._errors import MeshInputError
 from .._vectors import row_norms
 from ..core import _rdt as core
 from ..features.sharp_edges import chain_edges
-from ._mesh_input import signed_volume
+from ._mesh_input import bounding_sphere, signed_volume
 from ._mesh_repair import is_flat
+from ._mesh_tents import TENT_HEIGHTS, faces_along_normal, rim_frame, tent
 
 #: Where the feature curves come from: the rims (boundaries of a mesh with holes kept).
 RIM_SOURCE = "hole rim"
@@ -37,11 +38,6 @@ RIM_TURN = 60.0
 RIM_STEP = 0.1
 #: ``holes=`` choices of :class:`~rdmesh.MeshSurface`.
 HOLES = ("keep", "fill")
-#: Heights of the walls of the tents tried over a hole whose cap fails, in turn,
-#: in radii of its rim (negative: behind the faces next to it).
-TENT_HEIGHTS = (-0.5, 0.5, -1.0, 1.0, -0.25, 0.25)
-#: The height of a tent's cone over its wall, in radii of its rim.
-TENT_CONE = 0.5
 
 
 @dataclass
@@ -65,7 +61,7 @@ class Holes:
     base : int
         The input's vertex count: ``apexes[j]`` is vertex ``base + j``.
     apexes : (t, 3) float64
-        The tents' vertices (:func:`tent`).
+        The tents' vertices (:func:`~._mesh_tents.tent`).
     apex_rim : (t,) int64
         The rim each of them closes.
     tries : (r,) int64
@@ -121,7 +117,7 @@ class Holes:
 
     def largest_rim(self, vertices: np.ndarray) -> int:
         """The rim enclosing the largest area (by its vector area)."""
-        return int(np.argmax([_rim_frame(vertices, r)[2] for r in self.rims]))
+        return int(np.argmax([rim_frame(vertices, r)[2] for r in self.rims]))
 
 
 def rim_half_edges(faces: np.ndarray) -> np.ndarray:
@@ -267,77 +263,6 @@ def find_holes(vertices: np.ndarray, faces: np.ndarray) -> Holes | None:
     return Holes(loops, curves, np.concatenate(caps), rim, thirds, base=len(vertices))
 
 
-def _rim_frame(
-    vertices: np.ndarray, loop: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """A rim's centre (the mean of its edges' midpoints, by length), the unit
-    normal of its vector area (along the faces' normals next to it), that area
-    and the rim's radius (root mean square distance of its vertices to the centre)."""
-    p = vertices[loop]
-    q = np.roll(p, -1, axis=0)
-    length = row_norms(q - p)
-    centre = ((p + q) * (0.5 * length)[:, None]).sum(axis=0) / max(float(length.sum()), 1e-300)
-    vec = 0.5 * np.cross(p - centre, q - centre).sum(axis=0)
-    area = float(np.linalg.norm(vec))
-    radius = float(np.sqrt(np.mean(np.sum((p - centre) ** 2, axis=1))))
-    return centre, vec / max(area, 1e-300), area, radius
-
-
-def tent(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray, first: int, height: float):
-    """A tent over one rim: a wall from the rim to a smooth loop ``height`` rim radii
-    off it, square to the faces on the rim (``third``: their third vertices; negative
-    heights behind them), and a cone over that loop to a point :data:`TENT_CONE`
-    rim radii beyond. Returns the new vertices ``(k + 1, 3)``, numbered from
-    ``first``, and the triangles, oriented against the rim's half-edges as
-    :func:`cap`'s. An open sheet's flat cap lies on the sheet; a tent stands off
-    it, and its smooth top keeps a scan's jagged rim from folding the cone."""
-    p, q = vertices[loop], vertices[np.roll(loop, -1)]
-    n = np.cross(q - p, vertices[third] - p)  # the faces' normals, by rim edge
-    n /= np.maximum(row_norms(n), 1e-300)[:, None]
-    at = _smooth(n + np.roll(n, 1, axis=0))  # by rim vertex
-    at /= np.maximum(row_norms(at), 1e-300)[:, None]
-    _, normal, _, radius = _rim_frame(vertices, loop)
-    top = _smooth(p) + height * radius * at
-    apex = top.mean(axis=0) + np.copysign(TENT_CONE, height) * radius * normal
-    k = len(loop)
-    i, j = np.arange(k), np.roll(np.arange(k), -1)
-    up, tip = first + i, first + k
-    tri = np.concatenate([
-        np.c_[loop[j], loop[i], up[i]],
-        np.c_[loop[j], up[i], up[j]],
-        np.c_[up[j], up[i], np.full(k, tip)],
-    ])  # fmt: skip
-    return np.concatenate([top, apex[None]]), tri.astype(np.int64)
-
-
-#: A tent closes a rim whose faces on it turn less than this from the rim's
-#: normal (degrees; the median over its edges): the rim of a sheet.
-TENT_TURN = 60.0
-
-
-def _faces_along_normal(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray) -> bool:
-    """Whether the faces on a rim face along its normal (:data:`TENT_TURN`): a
-    tent's wall, square to them, then stands off the sheet; on a rim whose faces
-    are a skirt square to the sheet it would lie along the sheet."""
-    p, q = vertices[loop], vertices[np.roll(loop, -1)]
-    n = np.cross(q - p, vertices[third] - p)
-    n /= np.maximum(row_norms(n), 1e-300)[:, None]
-    _, normal, area, _ = _rim_frame(vertices, loop)
-    return area > 0 and float(np.median(n @ normal)) >= np.cos(np.radians(TENT_TURN))
-
-
-#: A tent's top follows its rim's lowest harmonics only (:func:`_smooth`).
-TENT_HARMONICS = 6
-
-
-def _smooth(x: np.ndarray) -> np.ndarray:
-    """Values ``(k, 3)`` around a closed loop with their harmonics above
-    :data:`TENT_HARMONICS` removed."""
-    c = np.fft.rfft(x, axis=0)
-    c[TENT_HARMONICS + 1 :] = 0
-    return np.fft.irfft(c, n=len(x), axis=0)
-
-
 def _without_steps(vertices: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
     """The rims' edges ``(k, 2)`` for their feature curves, tiny steps left out:
     a vertex entered by an edge under :data:`RIM_STEP` times the median rim
@@ -379,15 +304,16 @@ def with_caps(
     return f, norms, normals
 
 
-def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
+def close_holes(surface, norms: np.ndarray, sphere: tuple[np.ndarray, float]):
     """Append the caps over ``surface.holes`` to ``surface.faces`` (and the tents'
-    apexes to ``surface.vertices``) and build its queries (``_start_queries``);
-    returns the faces' doubled areas.
+    vertices to ``surface.vertices``) and build its queries (``_start_queries``);
+    returns the faces' doubled areas and the bounding ``sphere`` (centre, radius)
+    of the input, widened over the tents.
 
     A cap that crosses the mesh or shares an edge with it is dropped (of two
     caps that cross, the smaller rim's), and so is the largest rim's cap when
     the capped mesh encloses no volume (an open sheet). Those holes get a
-    :func:`tent` instead, at the first of :data:`TENT_HEIGHTS` whose tent
+    :func:`~._mesh_tents.tent` instead, at the first of :data:`TENT_HEIGHTS` whose tent
     crosses nothing; the holes that none clears are closed by the winding
     number's patches.
 
@@ -396,10 +322,10 @@ def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
     rdmesh.MeshInputError
         The closed mesh still encloses no volume.
     """
-    holes = surface.holes
+    holes, radius = surface.holes, sphere[1]
     if holes is None or not holes.rims:
         surface._start_queries(radius)
-        return norms
+        return norms, sphere
     v, inputs = surface.vertices, (surface.faces, norms, surface._normals)
     n = len(inputs[0])
 
@@ -419,7 +345,7 @@ def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
         holes.drop_caps(_overfull(np.concatenate([inputs[0], holes.caps]), n))
     holes.tries = np.zeros(len(holes.rims), np.int64)
     for r, (loop, third) in enumerate(zip(holes.rims, holes.thirds, strict=True)):
-        if not _faces_along_normal(v, loop, third):
+        if not faces_along_normal(v, loop, third):
             holes.tries[r] = len(TENT_HEIGHTS)  # no tent: it would lie along them
     flat_seen = False
     while True:
@@ -442,7 +368,10 @@ def close_holes(surface, norms: np.ndarray, radius: float) -> np.ndarray:
             "the mesh is too open to tell inside from outside: closed over its "
             f"{len(holes.rims)} holes it encloses no volume (a flat patch?)"
         )
-    return area
+    if len(holes.apexes):  # tents stand off the input
+        sphere = bounding_sphere(surface.vertices)
+        surface.cap *= sphere[1] / radius  # the distance cap scales with the radius
+    return area, sphere
 
 
 def _crossing_rims(holes: Holes, pairs, size: np.ndarray) -> np.ndarray:

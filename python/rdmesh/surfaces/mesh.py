@@ -15,7 +15,7 @@ from .._validate import choice
 from ..features.sharp_edges import sharp_curves
 from ._mesh_holes import HOLES, close_holes, find_holes, rim_half_edges, trim_rims
 from ._mesh_input import area_vectors, bounding_sphere, fold_edges, oriented_mesh
-from ._mesh_queries import DISTANCE_CAP, MeshQueries
+from ._mesh_queries import MeshQueries
 from ._mesh_report import MeshReport
 from .oracle import ImplicitSurface
 
@@ -187,11 +187,7 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
         self.vertices, self.faces, norms, self._normals = oriented_mesh(mesh)
         self.holes, norms = _holes(self, norms, holes, features)
         n = self.input_face_count = len(self.faces)
-        centre, radius = bounding_sphere(self.vertices)
-        norms = close_holes(self, norms, radius)  # and _start_queries
-        if self.holes is not None and len(self.holes.apexes):  # tents stand off the input
-            centre, radius = bounding_sphere(self.vertices)
-            self.cap = DISTANCE_CAP * radius
+        norms, (centre, radius) = close_holes(self, norms, bounding_sphere(self.vertices))
         self.fold_edges = fold_edges(self.faces[:n], self._normals[:n])
         self.folds = len(self.fold_edges)
         self._set_sign(norms)

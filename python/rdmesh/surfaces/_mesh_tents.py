@@ -1,0 +1,131 @@
+"""Tents: what closes a hole whose flat cap cannot (an open sheet's, or one
+that would cross the mesh), and how coarsely a remesh may follow them.
+
+A tent (:func:`tent`) is a wall from the rim, square to the faces on it, up to
+a smooth loop off the mesh, and a cone over that loop. :mod:`._mesh_holes`
+tries it at :data:`TENT_HEIGHTS` in turn; the part of the remesh on it is cut
+off afterwards, so :func:`tent_clearance` lets the size and distance bounds
+grow with the distance from the input there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .._vectors import row_norms
+
+#: Heights of the walls of the tents tried over a hole whose cap fails, in turn,
+#: in radii of its rim (negative: behind the faces next to it).
+TENT_HEIGHTS = (-0.5, 0.5, -1.0, 1.0, -0.25, 0.25)
+#: The height of a tent's cone over its wall, in radii of its rim.
+TENT_CONE = 0.5
+
+
+def rim_frame(
+    vertices: np.ndarray, loop: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """A rim's centre (the mean of its edges' midpoints, by length), the unit
+    normal of its vector area (along the faces' normals next to it), that area
+    and the rim's radius (root mean square distance of its vertices to the centre)."""
+    p = vertices[loop]
+    q = np.roll(p, -1, axis=0)
+    length = row_norms(q - p)
+    centre = ((p + q) * (0.5 * length)[:, None]).sum(axis=0) / max(float(length.sum()), 1e-300)
+    vec = 0.5 * np.cross(p - centre, q - centre).sum(axis=0)
+    area = float(np.linalg.norm(vec))
+    radius = float(np.sqrt(np.mean(np.sum((p - centre) ** 2, axis=1))))
+    return centre, vec / max(area, 1e-300), area, radius
+
+
+def tent(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray, first: int, height: float):
+    """A tent over one rim: a wall from the rim to a smooth loop ``height`` rim radii
+    off it, square to the faces on the rim (``third``: their third vertices; negative
+    heights behind them), and a cone over that loop to a point :data:`TENT_CONE`
+    rim radii beyond. Returns the new vertices ``(k + 1, 3)``, numbered from
+    ``first``, and the triangles, oriented against the rim's half-edges as
+    :func:`~._mesh_holes.cap`'s. An open sheet's flat cap lies on the sheet; a tent stands off
+    it, and its smooth top keeps a scan's jagged rim from folding the cone."""
+    p, q = vertices[loop], vertices[np.roll(loop, -1)]
+    n = np.cross(q - p, vertices[third] - p)  # the faces' normals, by rim edge
+    n /= np.maximum(row_norms(n), 1e-300)[:, None]
+    at = _smooth(n + np.roll(n, 1, axis=0))  # by rim vertex
+    at /= np.maximum(row_norms(at), 1e-300)[:, None]
+    _, normal, _, radius = rim_frame(vertices, loop)
+    top = _smooth(p) + height * radius * at
+    apex = top.mean(axis=0) + np.copysign(TENT_CONE, height) * radius * normal
+    k = len(loop)
+    i, j = np.arange(k), np.roll(np.arange(k), -1)
+    up, tip = first + i, first + k
+    tri = np.concatenate([
+        np.c_[loop[j], loop[i], up[i]],
+        np.c_[loop[j], up[i], up[j]],
+        np.c_[up[j], up[i], np.full(k, tip)],
+    ])  # fmt: skip
+    return np.concatenate([top, apex[None]]), tri.astype(np.int64)
+
+
+#: A tent closes a rim whose faces on it turn less than this from the rim's
+#: normal (degrees; the median over its edges): the rim of a sheet.
+TENT_TURN = 60.0
+
+
+def faces_along_normal(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray) -> bool:
+    """Whether the faces on a rim face along its normal (:data:`TENT_TURN`): a
+    tent's wall, square to them, then stands off the sheet; on a rim whose faces
+    are a skirt square to the sheet it would lie along the sheet."""
+    p, q = vertices[loop], vertices[np.roll(loop, -1)]
+    n = np.cross(q - p, vertices[third] - p)
+    n /= np.maximum(row_norms(n), 1e-300)[:, None]
+    _, normal, area, _ = rim_frame(vertices, loop)
+    return area > 0 and float(np.median(n @ normal)) >= np.cos(np.radians(TENT_TURN))
+
+
+#: A tent's top follows its rim's lowest harmonics only (:func:`_smooth`).
+TENT_HARMONICS = 6
+
+
+def _smooth(x: np.ndarray) -> np.ndarray:
+    """Values ``(k, 3)`` around a closed loop with their harmonics above
+    :data:`TENT_HARMONICS` removed."""
+    c = np.fft.rfft(x, axis=0)
+    c[TENT_HARMONICS + 1 :] = 0
+    return np.fft.irfft(c, n=len(x), axis=0)
+
+
+#: On a tent, the size bound grows to this fraction of a facet's distance from
+#: the input, and the distance bound to :data:`TENT_DISTANCE_GRADE` of it: the
+#: part of the remesh there is cut off, and only needs to stay a surface.
+TENT_GRADE, TENT_DISTANCE_GRADE = 0.5, 0.05
+
+
+def tent_clearance(surface, centres: np.ndarray) -> np.ndarray | None:
+    """``(k,)`` lower bounds of the distance from each surface centre ``(k, 3)`` of
+    a remesh of ``surface`` (a :class:`~rdmesh.MeshSurface`) to the input's faces,
+    on the tents that close its holes (0 elsewhere); None without tents.
+
+    A centre is on a tent where it is an exact crossing of a face with a tent
+    vertex; the bound is its distance to the nearest input vertex, less the
+    farthest any point of an input face lies from a vertex of it."""
+    holes = getattr(surface, "holes", None)
+    if holes is None or not len(holes.apexes):
+        return None
+    out = np.zeros(len(centres))
+    face = surface.crossing_faces(centres)
+    mine = face >= 0
+    mine[mine] = (surface.faces[face[mine]] >= holes.base).any(axis=1)
+    if mine.any():
+        tree, gap = _input_vertices(surface)
+        out[mine] = np.maximum(tree.query(centres[mine])[0] - gap, 0.0)
+    return out
+
+
+def _input_vertices(surface) -> tuple[cKDTree, float]:
+    """A k-d tree of the input's vertices and the farthest a point of an input face
+    lies from one of them (its longest edge over sqrt 3), built once."""
+    if getattr(surface, "_input_tree", None) is None:
+        f = surface.faces[: surface.input_face_count]
+        v = surface.vertices
+        edges = row_norms(v[f].reshape(-1, 3) - v[np.roll(f, 1, axis=1)].reshape(-1, 3))
+        surface._input_tree = (cKDTree(v[: surface.holes.base]), float(edges.max()) / np.sqrt(3))
+    return surface._input_tree
