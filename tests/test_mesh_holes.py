@@ -337,13 +337,16 @@ def test_a_tent_closes_a_rim_square_to_its_faces():
     holes = _mesh_holes.find_holes(v, f)
     loop, third = holes.rims[0], holes.thirds[0]
     new, tri = _mesh_tents.tent(v, loop, third, len(v), -0.5)
-    assert len(new) == len(loop) + 1
+    k = len(loop)
+    assert len(new) == (_mesh_tents.TENT_RINGS - 1) * k + 1
     assert _closed_and_oriented(np.concatenate([f, tri]), len(v) + len(new))
-    # The wall leaves the flat sheet along its normal, half a rim radius tall.
+    # A dome behind the flat sheet, half a rim radius tall at its top ...
     _, _, _, radius = _mesh_tents.rim_frame(v, loop)
-    top = new[:-1] - v[loop]
-    assert np.allclose(np.abs(top[:, 2]), 0.5 * radius, rtol=1e-6)
-    assert np.all(np.linalg.norm(top[:, :2], axis=1) < 0.15 * radius)  # the corners rounded
+    assert np.all(new[:, 2] < 0) and abs(new[-1, 2] + 0.5 * radius) < 1e-9 * radius
+    assert np.allclose(new[-1, :2], 0, atol=1e-9)
+    # ... that leaves the rim square to the sheet: its first ring mostly rises.
+    step = new[:k] - v[loop]
+    assert np.median(np.abs(step[:, 2]) / np.linalg.norm(step[:, :2], axis=1)) > 3
 
 
 @pytest.mark.parametrize("kind", ["flat", "wavy"])

@@ -1,8 +1,8 @@
 """Tents: what closes a hole whose flat cap cannot (an open sheet's, or one
 that would cross the mesh), and how coarsely a remesh may follow them.
 
-A tent (:func:`tent`) is a wall from the rim, square to the faces on it, up to
-a smooth loop off the mesh, and a cone over that loop. :mod:`._mesh_holes`
+A tent (:func:`tent`) is a dome over the rim, leaving it square to the faces
+on it. :mod:`._mesh_holes`
 tries it at :data:`TENT_HEIGHTS` in turn; the part of the remesh on it is cut
 off afterwards, so :func:`tent_clearance` lets the size and distance bounds
 grow with the distance from the input there.
@@ -15,11 +15,11 @@ from scipy.spatial import cKDTree
 
 from .._vectors import row_norms
 
-#: Heights of the walls of the tents tried over a hole whose cap fails, in turn,
-#: in radii of its rim (negative: behind the faces next to it).
+#: Heights of the tents tried over a hole whose cap fails, in turn, in radii of
+#: its rim (negative: behind the faces next to it).
 TENT_HEIGHTS = (-0.5, 0.5, -1.0, 1.0, -0.25, 0.25)
-#: The height of a tent's cone over its wall, in radii of its rim.
-TENT_CONE = 0.5
+#: A tent's rings of vertices from its rim to its top (:func:`tent`).
+TENT_RINGS = 8
 
 
 def rim_frame(
@@ -39,30 +39,40 @@ def rim_frame(
 
 
 def tent(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray, first: int, height: float):
-    """A tent over one rim: a wall from the rim to a smooth loop ``height`` rim radii
-    off it, square to the faces on the rim (``third``: their third vertices; negative
-    heights behind them), and a cone over that loop to a point :data:`TENT_CONE`
-    rim radii beyond. Returns the new vertices ``(k + 1, 3)``, numbered from
-    ``first``, and the triangles, oriented against the rim's half-edges as
-    :func:`~._mesh_holes.cap`'s. An open sheet's flat cap lies on the sheet; a tent stands off
-    it, and its smooth top keeps a scan's jagged rim from folding the cone."""
+    """A tent over one rim: a dome ``|height|`` rim radii tall (negative heights
+    behind the faces on the rim; ``third``: their third vertices), leaving the rim
+    square to those faces and closing over the rim's centre, in
+    :data:`TENT_RINGS` rings that follow ever smoother loops (the rim's lowest
+    harmonics) so that a scan's jagged rim does not fold it. Returns the new
+    vertices ``(r k + 1, 3)``, numbered from ``first`` (ring by ring, the top
+    last), and the triangles, oriented against the rim's half-edges as
+    :func:`~._mesh_holes.cap`'s. An open sheet's flat cap lies on the sheet; a
+    tent stands off it, with no crease or cone point that refinement would chase."""
     p, q = vertices[loop], vertices[np.roll(loop, -1)]
     n = np.cross(q - p, vertices[third] - p)  # the faces' normals, by rim edge
     n /= np.maximum(row_norms(n), 1e-300)[:, None]
-    at = _smooth(n + np.roll(n, 1, axis=0))  # by rim vertex
-    at /= np.maximum(row_norms(at), 1e-300)[:, None]
-    _, normal, _, radius = rim_frame(vertices, loop)
-    top = _smooth(p) + height * radius * at
-    apex = top.mean(axis=0) + np.copysign(TENT_CONE, height) * radius * normal
-    k = len(loop)
+    side = np.copysign(1.0, height)
+    at = side * _smooth(n + np.roll(n, 1, axis=0))  # by rim vertex
+    centre, normal, _, radius = rim_frame(vertices, loop)
+    tall, smooth = abs(height) * radius, _smooth(p)
+    rings = []
+    for t in np.arange(1, TENT_RINGS) / TENT_RINGS:
+        a = np.sin(0.5 * np.pi * t)
+        way = (1 - a) * at + a * side * normal
+        way /= np.maximum(row_norms(way), 1e-300)[:, None]
+        rim = p + t * (smooth - p)  # jagged to smooth ...
+        rings.append(rim + a * tall * way + (1 - np.cos(0.5 * np.pi * t)) * (centre - rim))
+    top = centre + tall * side * normal
+    k, m = len(loop), len(rings)
+    ids = np.concatenate([loop[None], first + np.arange(m * k).reshape(m, k)])
     i, j = np.arange(k), np.roll(np.arange(k), -1)
-    up, tip = first + i, first + k
+    lo, hi = ids[:-1], ids[1:]
     tri = np.concatenate([
-        np.c_[loop[j], loop[i], up[i]],
-        np.c_[loop[j], up[i], up[j]],
-        np.c_[up[j], up[i], np.full(k, tip)],
+        np.stack([lo[:, j], lo[:, i], hi[:, i]], axis=-1).reshape(-1, 3),
+        np.stack([lo[:, j], hi[:, i], hi[:, j]], axis=-1).reshape(-1, 3),
+        np.c_[ids[-1, j], ids[-1, i], np.full(k, first + m * k)],
     ])  # fmt: skip
-    return np.concatenate([top, apex[None]]), tri.astype(np.int64)
+    return np.concatenate([*rings, top[None]]), tri.astype(np.int64)
 
 
 #: A tent closes a rim whose faces on it turn less than this from the rim's
