@@ -369,8 +369,11 @@ def remesh_rows(
         except rdmesh.MeshInputError as exc:
             rows.append({"kind": "remesh", "case": name, "note": f"refused: {exc}"})
             continue
-        diag = float(np.linalg.norm(np.ptp(ref.vertices, axis=0)))
-        inp = topology(ref.vertices, input_faces(ref))
+        # The input's own vertices (not those of tents closing its holes).
+        used, faces = np.unique(input_faces(ref), return_inverse=True)
+        iv, faces = ref.vertices[used], faces.reshape(-1, 3)
+        diag = float(np.linalg.norm(np.ptp(iv, axis=0)))
+        inp = topology(iv, faces)
         intersects = len(ref.self_intersections)
         for frac in sizes:
             r = frac * diag
@@ -380,7 +383,7 @@ def remesh_rows(
                 import pymeshlab  # noqa: F401
 
                 runs = [partial(run_rdmesh_remesh, ref, r),
-                        partial(run_pymeshlab, ref.vertices, input_faces(ref), r)]  # fmt: skip
+                        partial(run_pymeshlab, iv, faces, r)]  # fmt: skip
             except ImportError:
                 runs = [partial(run_rdmesh_remesh, ref, r)]
             done = _alternating(runs, repeat)
