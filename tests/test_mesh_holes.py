@@ -349,6 +349,25 @@ def test_a_tent_closes_a_rim_square_to_its_faces():
     assert np.median(np.abs(step[:, 2]) / np.linalg.norm(step[:, :2], axis=1)) > 3
 
 
+def _holed_sheet(n=40, kind="flat"):
+    """:func:`_sheet` without the faces in the middle ninth: a sheet with an inner hole."""
+    v, f = _sheet(n, kind)
+    c = v[f].mean(axis=1)
+    return v, f[(np.abs(c[:, 0]) > 1 / 3) | (np.abs(c[:, 1]) > 1 / 3)]
+
+
+def test_a_tent_over_an_inner_rim_stands_on_the_side_asked():
+    """An inner hole's rim runs against its faces' normals: its tent still goes
+    behind the faces for a negative height."""
+    v, f = _holed_sheet(13)
+    holes = _mesh_holes.find_holes(v, f)
+    assert len(holes.rims) == 2
+    for loop, third in zip(holes.rims, holes.thirds, strict=True):
+        assert _mesh_tents.faces_along_normal(v, loop, third)
+        new, _ = _mesh_tents.tent(v, loop, third, len(v), -0.5)
+        assert np.all(new[:, 2] < 0)
+
+
 @pytest.mark.parametrize("kind", ["flat", "wavy"])
 def test_an_open_sheet_is_remeshed_with_its_boundary(kind):
     """A sheet's flat cap lies on it: it is closed by a tent instead, and the
@@ -413,3 +432,13 @@ def test_a_tent_is_meshed_coarsely_away_from_the_rim(monkeypatch):
     for mesh in (coarse, fine):
         chi, bl = component_topology(mesh.faces, len(mesh.vertices))
         assert list(chi) == [1] and list(bl) == [1] and mesh.complete
+
+
+def test_a_sheet_with_an_inner_hole_keeps_both_rims():
+    v, f = _holed_sheet(40, "wavy")
+    mesh = rdmesh.mesh_surface(rdmesh.MeshSurface((v, f)), radius_bound=0.1, distance_bound=0.01)
+    chi, bl = component_topology(mesh.faces, len(mesh.vertices))
+    assert list(chi) == [0] and list(bl) == [2] and mesh.complete
+    a, b = _rim_points(v, f)
+    rim_out = mesh.vertices[_boundary_vertices(mesh.faces)]
+    assert _distance_to_segments(rim_out, a, b).max() < 1e-9

@@ -54,6 +54,7 @@ def tent(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray, first: int, 
     side = np.copysign(1.0, height)
     at = side * _smooth(n + np.roll(n, 1, axis=0))  # by rim vertex
     centre, normal, _, radius = rim_frame(vertices, loop)
+    normal *= np.copysign(1.0, np.median(n @ normal))  # an inner hole's rim runs the other way
     tall, smooth = abs(height) * radius, _smooth(p)
     rings = []
     for t in np.arange(1, TENT_RINGS) / TENT_RINGS:
@@ -81,14 +82,16 @@ TENT_TURN = 60.0
 
 
 def faces_along_normal(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray) -> bool:
-    """Whether the faces on a rim face along its normal (:data:`TENT_TURN`): a
-    tent's wall, square to them, then stands off the sheet; on a rim whose faces
-    are a skirt square to the sheet it would lie along the sheet."""
+    """Whether the faces on a rim face along its normal, either way
+    (:data:`TENT_TURN`): a tent, leaving the rim square to them, then stands off
+    the sheet; on a rim whose faces are a skirt square to the sheet it would lie
+    along the sheet."""
     p, q = vertices[loop], vertices[np.roll(loop, -1)]
     n = np.cross(q - p, vertices[third] - p)
     n /= np.maximum(row_norms(n), 1e-300)[:, None]
     _, normal, area, _ = rim_frame(vertices, loop)
-    return area > 0 and float(np.median(n @ normal)) >= np.cos(np.radians(TENT_TURN))
+    # Either way: an inner hole's rim runs against its faces' normals.
+    return area > 0 and abs(float(np.median(n @ normal))) >= np.cos(np.radians(TENT_TURN))
 
 
 #: A tent's top follows its rim's lowest harmonics only (:func:`_smooth`).

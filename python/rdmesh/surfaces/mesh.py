@@ -81,9 +81,9 @@ class MeshSurface(MeshQueries, MeshReport, ImplicitSurface):
         An open mesh's holes. "keep": the remesh has the input's boundary;
         each hole's rim is a protected feature curve (split at turns of 60
         degrees or more), the hole is closed while meshing by a cap (CGAL's
-        ``triangulate_hole_polyline`` over the rim; where a cap would cross
-        the mesh, by the winding number's patch), and the part of the remesh
-        on the caps is cut off along the rims (``report["holes"]``). Rim
+        ``triangulate_hole_polyline``; where it crosses the mesh or lies on
+        it, as a sheet's, a dome; else the winding number's patch), and that
+        part of the remesh is cut off along the rims (``report["holes"]``). Rim
         slivers (edges under 10 degrees apart) are trimmed first; if the rims
         cannot be protected, :func:`rdmesh.mesh_surface` meshes the input again
         with the holes filled. Needs ``method="boissonnat-oudot"``. "fill":
