@@ -442,3 +442,19 @@ def test_a_sheet_with_an_inner_hole_keeps_both_rims():
     a, b = _rim_points(v, f)
     rim_out = mesh.vertices[_boundary_vertices(mesh.faces)]
     assert _distance_to_segments(rim_out, a, b).max() < 1e-9
+
+
+def test_filling_again_drops_the_tents_vertices(monkeypatch):
+    """Meshed again with its holes filled, a surface closed by a tent keeps only
+    its input's vertices (the tent's would widen its bounding sphere)."""
+    from rdmesh.surfaces.mesh import filled
+
+    monkeypatch.setattr(
+        _mesh_holes.core, "fill_hole", lambda points, third=None: np.zeros((0, 3), np.int64)
+    )
+    v, f = _open_sphere((0.6,))
+    surface = rdmesh.MeshSurface((v, f))
+    assert len(surface.holes.apexes) and len(surface.vertices) > surface.holes.base
+    again = filled(surface)
+    assert again.holes is None and len(again.vertices) == surface.holes.base
+    assert again.radius <= surface.radius

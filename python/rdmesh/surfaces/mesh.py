@@ -205,8 +205,9 @@ def filled(surface: MeshSurface) -> MeshSurface:
     """``surface``'s input (its slivers trimmed) with the holes filled
     (``holes="fill"``), the same name, feature angle and features."""
     faces = surface.faces[: surface.input_face_count]
+    v = surface.vertices if surface.holes is None else surface.vertices[: surface.holes.base]
     angle = surface.feature_angle if len(surface.sharp_edges) else None  # as "auto" chose
     return MeshSurface(
-        (surface.vertices, faces), name=surface.name, feature_angle=angle,
+        (v, faces), name=surface.name, feature_angle=angle,
         features=surface.features or None, holes="fill",
     )  # fmt: skip
