@@ -8,10 +8,10 @@ crossings, the Lipschitz clearing), and protects each rim as a feature curve
 chain along every rim, and :mod:`rdmesh.refine.hole_cut` cuts the caps' part
 off along those chains. A hole whose cap would cross the mesh, or whose cap
 lies on the mesh (an open sheet: its rim's cap is the sheet's flat twin), is
-closed by a tent instead (:mod:`._mesh_tents`: a wall square to the faces on
-the rim, and a cone over it), and where no tent clears the mesh either, by the winding
-number's patch, which the cut tells apart from the faces by its facets'
-distance to them.
+closed by a tent instead (:mod:`._mesh_tents`: a dome over the rim, leaving it
+square to the faces on it), and where no tent clears the mesh either, by the
+winding number's patch, which the cut tells apart from the faces by its
+facets' distance to them.
 """
 
 from __future__ import annotations
