@@ -167,6 +167,11 @@ def test_distance_criterion():
         assert got.tolist() == [bad]
 
 
+def _slack(d, a, b):
+    """Least size and distance bounds a d and b d."""
+    return np.array([a * d]), np.array([b * d])
+
+
 def test_slack_raises_the_size_and_distance_bounds_to_its_share():
     """Where the output is cut off afterwards (a tent's facets), the size bound
     is at least a * d and the distance bound at least b * d."""
@@ -175,14 +180,12 @@ def test_slack_raises_the_size_and_distance_bounds_to_its_share():
     r = np.linalg.norm(centre - corners[:, 0], axis=1)
     crit = FacetCriteria(0, radius_bound=0.5 * r[0], distance_bound=0.01)
     assert crit.bad(corners, centre, r).tolist() == [True]
-    assert crit.bad(corners, centre, r, slack=(np.array([0.0]), 0.5, 0.05)).tolist() == [True]
-    roomy = (np.array([4.0 * r[0]]), 0.5, 0.05)  # size 2 r, distance 0.2 r
+    assert crit.bad(corners, centre, r, slack=_slack(0.0, 0.5, 0.05)).tolist() == [True]
+    roomy = _slack(4.0 * r[0], 0.5, 0.05)  # size 2 r, distance 0.2 r
     assert crit.bad(corners, centre, r, slack=roomy).tolist() == [False]
     # Each bound alone: too little room for the size, then for the distance.
-    assert crit.bad(corners, centre, r, slack=(np.array([1.9 * r[0]]), 0.5, 1.0)).tolist() == [
-        True
-    ]
-    far = (np.array([4.0 * r[0]]), 0.5, 0.2 * 0.03 / r[0])
+    assert crit.bad(corners, centre, r, slack=_slack(1.9 * r[0], 0.5, 1.0)).tolist() == [True]
+    far = _slack(4.0 * r[0], 0.5, 0.2 * 0.03 / r[0])
     assert crit.bad(corners, centre, r, slack=far).tolist() == [True]
 
 

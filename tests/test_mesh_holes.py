@@ -412,8 +412,6 @@ def test_a_tent_is_meshed_coarsely_away_from_the_rim(monkeypatch):
     """The remesh of a tent is cut off, so its facets may grow with their distance
     from the input: far fewer facets are cut than with the input's bounds, and
     the part kept is a disk of about as many vertices."""
-    from rdmesh.refine import pipeline
-
     monkeypatch.setenv("RDMESH_CHECK", "0")  # its per-round checks would take minutes here
     v, f = _sheet(40, "wavy")
 
@@ -424,8 +422,8 @@ def test_a_tent_is_meshed_coarsely_away_from_the_rim(monkeypatch):
         return mesh, mesh.report["holes"]["faces_cut"]
 
     coarse, cut = run()
-    monkeypatch.setattr(pipeline, "TENT_GRADE", 0.0)
-    monkeypatch.setattr(pipeline, "TENT_DISTANCE_GRADE", 0.0)
+    monkeypatch.setattr(_mesh_tents, "TENT_GRADE", 0.0)
+    monkeypatch.setattr(_mesh_tents, "TENT_DISTANCE_GRADE", 0.0)
     fine, cut_fine = run()
     assert cut < 0.6 * cut_fine
     assert abs(len(coarse.vertices) - len(fine.vertices)) <= 0.05 * len(fine.vertices)

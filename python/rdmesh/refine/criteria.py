@@ -96,7 +96,7 @@ class FacetCriteria:
         radii: np.ndarray,
         angle_exempt: np.ndarray | None = None,
         weights: np.ndarray | None = None,
-        slack: tuple[np.ndarray, float, float] | None = None,
+        slack: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> np.ndarray:
         """Which facets fail a criterion.
 
@@ -114,10 +114,9 @@ class FacetCriteria:
             squared; samples: 0). Facets next to balls get Mesh_3's
             relaxation (:func:`relaxed`); the distance is measured from the
             weighted circumcentre.
-        slack : ((k,) float, float, float), optional
-            ``(d, a, b)``: the size bound is at least ``a d`` and the distance
-            bound at least ``b d`` (where the output is cut off afterwards, ``d``
-            from what it keeps: :func:`rdmesh.surfaces._mesh_tents.tent_clearance`).
+        slack : ((k,) float, (k,) float), optional
+            Least size and distance bounds (where the output is cut off
+            afterwards: :func:`rdmesh.surfaces._mesh_tents.tent_slack`).
 
         Returns
         -------
@@ -145,7 +144,7 @@ class FacetCriteria:
         psi = self.sizing(centres)
         if psi is not None:
             if slack is not None:
-                psi = np.maximum(psi, slack[1] * slack[0])
+                psi = np.maximum(psi, slack[0])
             large = radii > psi
             bad |= large if skip is None else large & ~skip.size
         if self.distance_bound is not None:
@@ -156,7 +155,7 @@ class FacetCriteria:
             )
             bound = self.distance_bound
             if slack is not None:
-                bound = np.maximum(bound, slack[2] * slack[0])
+                bound = np.maximum(bound, slack[1])
             far = np.linalg.norm(cc - centres, axis=1) > bound
             bad |= far if skip is None else far & ~skip.distance
         if skip is not None:

@@ -31,7 +31,7 @@ from ..sampling.boundary import BOUNDARY_ANGLE_FLOOR
 from ..sampling.fine_clearing import FineClearing
 from ..sampling.grid import check_sphere_ends
 from ..sampling.screen import SlopeBound
-from ..surfaces._mesh_tents import TENT_DISTANCE_GRADE, TENT_GRADE, tent_clearance
+from ..surfaces._mesh_tents import tent_slack
 from ..surfaces.oracle import ImplicitSurface
 from .criteria import FacetCriteria
 from .facets import SAMPLING, DualSamples, evaluate_facets
@@ -267,10 +267,9 @@ def _slice_flags(p: FacetPipeline, vertices, tri, seg, rho, end_f, samples, boun
         if exempt.any():
             psi = p.boundary_sizing(ev.centre[r][exempt])
             exempt[exempt] = ev.radius[r][exempt] <= BOUNDARY_ANGLE_FLOOR * psi
-    clear = tent_clearance(p.surface, ev.centre[r])
     bad[r] = p.criteria.bad(
         corners, ev.centre[r], ev.radius[r], exempt, None if w is None else w[tri[r]],
-        None if clear is None else (clear, TENT_GRADE, TENT_DISTANCE_GRADE),
+        tent_slack(p.surface, ev.centre[r]),
     )  # fmt: skip
     topo = r & ((ev.n_cross >= 2) | ev.tangential)
     flags = (

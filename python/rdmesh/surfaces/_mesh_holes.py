@@ -26,7 +26,7 @@ from ..core import _rdt as core
 from ..features.sharp_edges import chain_edges
 from ._mesh_input import bounding_sphere, signed_volume
 from ._mesh_repair import is_flat
-from ._mesh_tents import TENT_HEIGHTS, faces_along_normal, rim_frame, tent
+from ._mesh_tents import TENT_HEIGHTS, faces_along_normal, input_clearance, rim_frame, tent
 
 #: Where the feature curves come from: the rims (boundaries of a mesh with holes kept).
 RIM_SOURCE = "hole rim"
@@ -66,6 +66,8 @@ class Holes:
         The rim each of them closes.
     tries : (r,) int64
         How many tents each rim has tried.
+    clearance : (cKDTree, float) or None
+        With tents, :func:`~._mesh_tents.input_clearance` of the input.
     trimmed : (int, int)
         The input's faces dropped and added at its rims' slivers (:func:`trim_rims`).
     """
@@ -79,6 +81,7 @@ class Holes:
     apexes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     apex_rim: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     tries: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    clearance: tuple | None = None
     trimmed: tuple[int, int] = (0, 0)
 
     @property
@@ -106,14 +109,25 @@ class Holes:
     def add_tents(self, vertices: np.ndarray, rims: np.ndarray) -> None:
         """Close each of ``rims`` (without caps) by its :func:`tent` at the next of
         :data:`TENT_HEIGHTS` (``tries`` counts them)."""
+        apexes, apex_rim, caps, cap_rim = (
+            [self.apexes],
+            [self.apex_rim],
+            [self.caps],
+            [self.cap_rim],
+        )
+        first = self.base + len(self.apexes)
         for r in rims.tolist():
-            first, height = self.base + len(self.apexes), TENT_HEIGHTS[self.tries[r]]
+            new, tri = tent(
+                vertices, self.rims[r], self.thirds[r], first, TENT_HEIGHTS[self.tries[r]]
+            )
             self.tries[r] += 1
-            new, tri = tent(vertices, self.rims[r], self.thirds[r], first, height)
-            self.apexes = np.concatenate([self.apexes, new])
-            self.apex_rim = np.r_[self.apex_rim, np.full(len(new), r)]
-            self.caps = np.concatenate([self.caps, tri])
-            self.cap_rim = np.r_[self.cap_rim, np.full(len(tri), r)]
+            first += len(new)
+            apexes.append(new)
+            apex_rim.append(np.full(len(new), r))
+            caps.append(tri)
+            cap_rim.append(np.full(len(tri), r))
+        self.apexes, self.apex_rim = np.concatenate(apexes), np.concatenate(apex_rim)
+        self.caps, self.cap_rim = np.concatenate(caps), np.concatenate(cap_rim)
 
     def largest_rim(self, vertices: np.ndarray) -> int:
         """The rim enclosing the largest area (by its vector area)."""
@@ -369,6 +383,7 @@ def close_holes(surface, norms: np.ndarray, sphere: tuple[np.ndarray, float]):
             f"{len(holes.rims)} holes it encloses no volume (a flat patch?)"
         )
     if len(holes.apexes):  # tents stand off the input
+        holes.clearance = input_clearance(v, inputs[0])
         sphere = bounding_sphere(surface.vertices)
         surface.cap *= sphere[1] / radius  # the distance cap scales with the radius
     return area, sphere

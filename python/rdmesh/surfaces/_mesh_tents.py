@@ -4,7 +4,7 @@ that would cross the mesh), and how coarsely a remesh may follow them.
 A tent (:func:`tent`) is a dome over the rim, leaving it square to the faces
 on it. :mod:`._mesh_holes`
 tries it at :data:`TENT_HEIGHTS` in turn; the part of the remesh on it is cut
-off afterwards, so :func:`tent_clearance` lets the size and distance bounds
+off afterwards, so :func:`tent_slack` lets the size and distance bounds
 grow with the distance from the input there.
 """
 
@@ -38,6 +38,17 @@ def rim_frame(
     return centre, vec / max(area, 1e-300), area, radius
 
 
+def _rim_faces(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray):
+    """The unit normals ``(k, 3)`` of the faces on a rim's edges (``third``: their
+    third vertices), and its :func:`rim_frame` with the normal turned to their
+    side (an inner hole's rim runs against its faces' normals)."""
+    p, q = vertices[loop], vertices[np.roll(loop, -1)]
+    n = np.cross(q - p, vertices[third] - p)
+    n /= np.maximum(row_norms(n), 1e-300)[:, None]
+    centre, normal, area, radius = rim_frame(vertices, loop)
+    return n, centre, normal * np.copysign(1.0, np.median(n @ normal)), area, radius
+
+
 def tent(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray, first: int, height: float):
     """A tent over one rim: a dome ``|height|`` rim radii tall (negative heights
     behind the faces on the rim; ``third``: their third vertices), leaving the rim
@@ -48,13 +59,10 @@ def tent(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray, first: int, 
     last), and the triangles, oriented against the rim's half-edges as
     :func:`~._mesh_holes.cap`'s. An open sheet's flat cap lies on the sheet; a
     tent stands off it, with no crease or cone point that refinement would chase."""
-    p, q = vertices[loop], vertices[np.roll(loop, -1)]
-    n = np.cross(q - p, vertices[third] - p)  # the faces' normals, by rim edge
-    n /= np.maximum(row_norms(n), 1e-300)[:, None]
+    p = vertices[loop]
+    n, centre, normal, _, radius = _rim_faces(vertices, loop, third)
     side = np.copysign(1.0, height)
     at = side * _smooth(n + np.roll(n, 1, axis=0))  # by rim vertex
-    centre, normal, _, radius = rim_frame(vertices, loop)
-    normal *= np.copysign(1.0, np.median(n @ normal))  # an inner hole's rim runs the other way
     tall, smooth = abs(height) * radius, _smooth(p)
     rings = []
     for t in np.arange(1, TENT_RINGS) / TENT_RINGS:
@@ -86,12 +94,8 @@ def faces_along_normal(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray
     (:data:`TENT_TURN`): a tent, leaving the rim square to them, then stands off
     the sheet; on a rim whose faces are a skirt square to the sheet it would lie
     along the sheet."""
-    p, q = vertices[loop], vertices[np.roll(loop, -1)]
-    n = np.cross(q - p, vertices[third] - p)
-    n /= np.maximum(row_norms(n), 1e-300)[:, None]
-    _, normal, area, _ = rim_frame(vertices, loop)
-    # Either way: an inner hole's rim runs against its faces' normals.
-    return area > 0 and abs(float(np.median(n @ normal))) >= np.cos(np.radians(TENT_TURN))
+    n, _, normal, area, _ = _rim_faces(vertices, loop, third)
+    return area > 0 and float(np.median(n @ normal)) >= np.cos(np.radians(TENT_TURN))
 
 
 #: A tent's top follows its rim's lowest harmonics only (:func:`_smooth`).
@@ -112,33 +116,34 @@ def _smooth(x: np.ndarray) -> np.ndarray:
 TENT_GRADE, TENT_DISTANCE_GRADE = 0.5, 0.05
 
 
-def tent_clearance(surface, centres: np.ndarray) -> np.ndarray | None:
-    """``(k,)`` lower bounds of the distance from each surface centre ``(k, 3)`` of
-    a remesh of ``surface`` (a :class:`~rdmesh.MeshSurface`) to the input's faces,
-    on the tents that close its holes (0 elsewhere); None without tents.
+def input_clearance(vertices: np.ndarray, faces: np.ndarray) -> tuple[cKDTree, float]:
+    """A k-d tree of the input's ``vertices`` and the farthest a point of one of
+    its ``faces`` lies from a vertex of it (its longest edge over sqrt 3): with
+    them, :func:`tent_slack` bounds a point's distance to the faces from below."""
+    edges = row_norms(
+        vertices[faces].reshape(-1, 3) - vertices[np.roll(faces, 1, axis=1)].reshape(-1, 3)
+    )
+    return cKDTree(vertices), float(edges.max()) / np.sqrt(3)
+
+
+def tent_slack(surface, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The size and distance bounds ``(k,)`` each that the facets with surface
+    centres ``(k, 3)`` on a tent of ``surface`` (a :class:`~rdmesh.MeshSurface`)
+    get at least (:data:`TENT_GRADE` and :data:`TENT_DISTANCE_GRADE` times a
+    lower bound of the distance to the input's faces; 0 off the tents), for
+    :meth:`~rdmesh.refine.criteria.FacetCriteria.bad`; None without tents.
 
     A centre is on a tent where it is an exact crossing of a face with a tent
     vertex; the bound is its distance to the nearest input vertex, less the
     farthest any point of an input face lies from a vertex of it."""
     holes = getattr(surface, "holes", None)
-    if holes is None or not len(holes.apexes):
+    if holes is None or holes.clearance is None:
         return None
-    out = np.zeros(len(centres))
+    d = np.zeros(len(centres))
     face = surface.crossing_faces(centres)
     mine = face >= 0
     mine[mine] = (surface.faces[face[mine]] >= holes.base).any(axis=1)
     if mine.any():
-        tree, gap = _input_vertices(surface)
-        out[mine] = np.maximum(tree.query(centres[mine])[0] - gap, 0.0)
-    return out
-
-
-def _input_vertices(surface) -> tuple[cKDTree, float]:
-    """A k-d tree of the input's vertices and the farthest a point of an input face
-    lies from one of them (its longest edge over sqrt 3), built once."""
-    if getattr(surface, "_input_tree", None) is None:
-        f = surface.faces[: surface.input_face_count]
-        v = surface.vertices
-        edges = row_norms(v[f].reshape(-1, 3) - v[np.roll(f, 1, axis=1)].reshape(-1, 3))
-        surface._input_tree = (cKDTree(v[: surface.holes.base]), float(edges.max()) / np.sqrt(3))
-    return surface._input_tree
+        tree, gap = holes.clearance
+        d[mine] = np.maximum(tree.query(centres[mine])[0] - gap, 0.0)
+    return TENT_GRADE * d, TENT_DISTANCE_GRADE * d
