@@ -13,7 +13,14 @@ import numpy as np
 
 from .._validate import choice
 from ..features.sharp_edges import sharp_curves
-from ._mesh_holes import HOLES, close_holes, find_holes, rim_half_edges, trim_rims
+from ._mesh_holes import (
+    HOLES,
+    close_holes,
+    drop_pinch_fans,
+    find_holes,
+    rim_half_edges,
+    trim_rims,
+)
 from ._mesh_input import area_vectors, bounding_sphere, fold_edges, oriented_mesh
 from ._mesh_queries import MeshQueries
 from ._mesh_report import MeshReport
@@ -38,7 +45,9 @@ def _holes(surface, norms, holes: str, features: Any):
             "holes='keep' protects the rims of an open mesh's holes, which features='none' "
             "forbids: use holes='fill' with it"
         )
-    v, f, dropped, added = trim_rims(surface.vertices, surface.faces)
+    v, f, fans = drop_pinch_fans(surface.vertices, surface.faces)
+    v, f, dropped, added = trim_rims(v, f)
+    dropped += fans
     if dropped or added:
         area = area_vectors(v, f)
         norms = np.linalg.norm(area, axis=1)
