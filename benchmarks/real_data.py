@@ -169,8 +169,8 @@ def more_mesh_inputs() -> dict[str, tuple[np.ndarray, np.ndarray] | str]:
     low-poly cow whose head's faces cross, an airplane, a 12-triangle cube, a
     10k bunny with its base open, a range scan), nilearn's fsaverage5
     surfaces (white matter, pial, inflated, sphere; both hemispheres: the right
-    white and pial surfaces intersect themselves) and two open sheets
-    (:func:`height_sheet`)."""
+    white and pial surfaces intersect themselves) and open sheets
+    (:func:`height_sheet`, :func:`corner_sheets`)."""
     out: dict = {}
     try:
         import pymeshlab
@@ -202,7 +202,15 @@ def more_mesh_inputs() -> dict[str, tuple[np.ndarray, np.ndarray] | str]:
         out["fsaverage5"] = "nilearn not installed"
     out["open sheet, wavy (synthetic)"] = height_sheet("wavy")
     out["open sheet, terrain (synthetic)"] = height_sheet("terrain")
+    out["open sheets, two sharing a corner (synthetic)"] = corner_sheets()
     return out
+
+
+def corner_sheets(n: int = 120) -> tuple[np.ndarray, np.ndarray]:
+    """The wavy :func:`height_sheet` and its copy turned half a turn about its corner
+    (1, 1): two sheets whose rims touch at that point."""
+    v, f = height_sheet("wavy", n)
+    return np.r_[v, v * [-1, -1, 1] + [2, 2, 0]], np.r_[f, f + len(v)]
 
 
 def volume_inputs(quick: bool) -> dict[str, np.ndarray | str]:

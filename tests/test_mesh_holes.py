@@ -479,43 +479,14 @@ def test_a_pinched_rim_vertex_loses_its_smaller_fan():
     assert none == 0 and len(f3) == len(_sheet(6)[1])
 
 
-def test_a_shell_closes_a_height_field_without_crossing_it():
-    v, f = _holed_sheet(20, "wavy")
-    d = _mesh_tents.sheet_direction(v, f)
-    assert abs(abs(d[2]) - 1) < 0.05
-    holes = _mesh_holes.find_holes(v, f)
-    back, tri = _mesh_tents.shell(v, f, holes.rims, holes.thirds, d)
-    V, F = np.r_[v, back], np.r_[f, tri]
-    assert _closed_and_oriented(F, len(V))
-    assert len(rdmesh.core._rdt.MeshDistance(V, F, side=True).self_intersections()) == 0
-    # Every vertex is swept back by at least the depth, and the back is flatter.
-    diag = np.linalg.norm(np.ptp(v, axis=0))
-    assert ((v - back) @ d).min() >= _mesh_tents.SHELL_DEPTH * diag - 1e-12
-    assert np.ptp(back @ d) <= 1.01 * _mesh_tents.SHELL_RELIEF * np.ptp(v @ d)
-
-
-def test_no_shell_for_a_solid_or_where_a_wall_would_run_along_the_faces():
-    v, f = _open_sphere((0.6,))
-    assert _mesh_tents.sheet_direction(v, f) is None  # faces turned every way
-    # A tray seen from above: a wall down from its lip would lie along the lip.
-    box = trimesh.creation.box([2, 2, 0.5])
-    up = box.face_normals[:, 2] > 0.5
-    v, f = np.asarray(box.vertices), np.asarray(box.faces)[~up][:, ::-1]  # normals inward
-    v, f = rdmesh.surfaces._mesh_input.clean(v, f)
-    d = _mesh_tents.sheet_direction(v, f)
-    assert d is not None and d[2] > 0.99
-    holes = _mesh_holes.find_holes(v, f)
-    assert _mesh_tents.shell(v, f, holes.rims, holes.thirds, d) is None
-
-
 def test_two_sheets_touching_at_a_corner_are_meshed_apart():
-    """Refused before (too open): the pinch's smaller fan is dropped, and the two
-    sheets are closed at once by their shell, kept apart where they come close."""
+    """Refused before (too open): the pinch's smaller fan is dropped, and each
+    sheet is closed by a tent (each one's cap lies on it)."""
     v, f = _bowtie(30)
     surface = rdmesh.MeshSurface((v, f))
-    assert surface.holes.shell and surface.sign_method == "side"
+    assert surface.sign_method == "side"
     mesh = rdmesh.mesh_surface(surface, radius_bound=0.04, distance_bound=0.004)
-    assert mesh.report["holes"]["closed_by"] == "shell behind the sheet"
+    assert mesh.report["holes"]["closed_by"] == "tents" and mesh.complete
     assert mesh.report["holes"]["slivers_trimmed"]["faces_dropped"] == 2
     chi, bl = component_topology(mesh.faces, len(mesh.vertices))
     assert sorted(chi) == [1, 1] and list(bl) == [1, 1]
@@ -523,5 +494,5 @@ def test_two_sheets_touching_at_a_corner_are_meshed_apart():
     assert np.linalg.norm(closest - mesh.vertices, axis=1).max() < 1e-9
     rim = np.zeros(len(mesh.vertices), bool)
     rim[_boundary_vertices(mesh.faces)] = True
-    assert np.all((face < surface.input_face_count) | rim)  # none on the shell
+    assert np.all((face < surface.input_face_count) | rim)  # none on the tents
     assert mesh.angles.min() >= 20.0

@@ -76,10 +76,7 @@ MIXED = (0.1, 0.9)
 
 
 def _closed_by(holes) -> str:
-    """What closed the holes while meshing: caps, tents, the winding number's
-    patches, or the sheet's shell."""
-    if holes.shell:
-        return "shell behind the sheet"
+    """What closed the holes while meshing: caps, tents, the winding number's patches."""
     tents = len(np.unique(holes.apex_rim))
     caps = len(np.unique(holes.cap_rim)) - tents
     patches = len(holes.rims) - caps - tents

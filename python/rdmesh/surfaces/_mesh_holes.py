@@ -11,8 +11,7 @@ lies on the mesh (an open sheet: its rim's cap is the sheet's flat twin), is
 closed by a tent instead (:mod:`._mesh_tents`: a dome over the rim, leaving it
 square to the faces on it), and where no tent clears the mesh either, by the
 winding number's patch, which the cut tells apart from the faces by its
-facets' distance to them, unless a sheet seen from one side can be closed by
-its shell (all its holes at once).
+facets' distance to them.
 """
 
 from __future__ import annotations
@@ -22,21 +21,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._errors import MeshInputError
-from .._mesh_components import components
 from .._vectors import row_norms, unique_rows
 from ..core import _rdt as core
 from ..features.sharp_edges import chain_edges
 from ._mesh_input import bounding_sphere, signed_volume
 from ._mesh_repair import is_flat
-from ._mesh_tents import (
-    TENT_HEIGHTS,
-    faces_along_normal,
-    input_clearance,
-    rim_frame,
-    sheet_direction,
-    shell,
-    tent,
-)
+from ._mesh_tents import TENT_HEIGHTS, faces_along_normal, input_clearance, rim_frame, tent
 
 #: Where the feature curves come from: the rims (boundaries of a mesh with holes kept).
 RIM_SOURCE = "hole rim"
@@ -80,10 +70,6 @@ class Holes:
         With tents, :func:`~._mesh_tents.input_clearance` of the input.
     trimmed : (int, int)
         The input's faces dropped and added at its rims' slivers (:func:`trim_rims`).
-    shell : bool
-        Whether the holes are closed by the sheet's :func:`~._mesh_tents.shell`
-        (its vertices are the ``apexes``, with ``apex_rim`` -1; its back's
-        triangles have ``cap_rim`` -1).
     """
 
     rims: list[np.ndarray]
@@ -97,7 +83,6 @@ class Holes:
     tries: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     clearance: tuple | None = None
     trimmed: tuple[int, int] = (0, 0)
-    shell: bool = False
 
     @property
     def capless(self) -> np.ndarray:
@@ -144,15 +129,9 @@ class Holes:
         self.apexes, self.apex_rim = np.concatenate(apexes), np.concatenate(apex_rim)
         self.caps, self.cap_rim = np.concatenate(caps), np.concatenate(cap_rim)
 
-    def add_shell(self, back: np.ndarray, tri: np.ndarray, m: int) -> None:
-        """Close every rim by the sheet's shell (:func:`~._mesh_tents.shell`: the
-        ``back`` vertices and triangles ``tri``, the first ``m`` the back's),
-        instead of caps and tents."""
-        walls = np.concatenate([np.full(len(r), k) for k, r in enumerate(self.rims)])
-        self.apexes, self.apex_rim = back, np.full(len(back), -1, np.int64)
-        self.caps = tri
-        self.cap_rim = np.r_[np.full(m, -1), walls, walls].astype(np.int64)
-        self.shell = True
+    def largest_rim(self, vertices: np.ndarray) -> int:
+        """The rim enclosing the largest area (by its vector area)."""
+        return int(np.argmax([rim_frame(vertices, r)[2] for r in self.rims]))
 
 
 def rim_half_edges(faces: np.ndarray) -> np.ndarray:
@@ -374,11 +353,8 @@ def close_holes(surface, norms: np.ndarray, sphere: tuple[np.ndarray, float]):
     caps that cross, the smaller rim's), and so is the largest rim's cap when
     the capped mesh encloses no volume (an open sheet). Those holes get a
     :func:`~._mesh_tents.tent` instead, at the first of :data:`TENT_HEIGHTS` whose tent
-    crosses nothing. A sheet seen from one side
-    (:func:`~._mesh_tents.sheet_direction`) is closed by its
-    :func:`~._mesh_tents.shell` instead, if that crosses nothing, where it has
-    several components or where some hole has neither cap nor tent; the
-    winding number's patches close the holes left.
+    crosses nothing; the holes that none clears are closed by the winding
+    number's patches.
 
     Raises
     ------
@@ -401,56 +377,11 @@ def close_holes(surface, norms: np.ndarray, sphere: tuple[np.ndarray, float]):
         return area, _crossing_rims(holes, np.sort(pairs, axis=1) - n, rim_size)
 
     rim_size = np.array([row_norms(v[np.roll(r, -1)] - v[r]).sum() for r in holes.rims])
-    # Caps and tents close each component on its own, and cannot keep two apart
-    # where they come close: a shell closes them all at once.
-    area = None
-    if components(inputs[0], len(v))[0] > 1:
-        area = _close_by_shell(holes, v, inputs[0], build, rebuild=False)
-    if area is None:
-        area = _close_by_caps_and_tents(surface, holes, v, inputs[0], build)
-    if len(holes.capless):  # left to the winding number
-        shelled = _close_by_shell(holes, v, inputs[0], build)
-        area = area if shelled is None else shelled
-    if _encloses_nothing(surface, area, n):
-        raise MeshInputError(
-            "the mesh is too open to tell inside from outside: closed over its "
-            f"{len(holes.rims)} holes it encloses no volume (a flat patch?)"
-        )
-    if len(holes.apexes):  # tents stand off the input
-        holes.clearance = input_clearance(v, inputs[0])
-        sphere = bounding_sphere(surface.vertices)
-        surface.cap *= sphere[1] / radius  # the distance cap scales with the radius
-    return area, sphere
 
-
-def _close_by_shell(holes: Holes, v: np.ndarray, faces: np.ndarray, build, rebuild=True):
-    """Close a sheet seen from one side by its shell instead of what closes it
-    now, unless that crosses something; the faces' doubled areas, or None
-    (the mesh built again as it was if ``rebuild``)."""
-    d = sheet_direction(v, faces)
-    made = None if d is None else shell(v, faces, holes.rims, holes.thirds, d)
-    if made is None:
-        return None
-    kept = holes.caps, holes.cap_rim, holes.apexes, holes.apex_rim
-    holes.add_shell(*made, len(faces))
-    area, crossing = build()
-    if not len(crossing):
-        return area
-    holes.caps, holes.cap_rim, holes.apexes, holes.apex_rim = kept
-    holes.shell = False
-    if rebuild:
-        build()
-    return None
-
-
-def _close_by_caps_and_tents(surface, holes: Holes, v: np.ndarray, faces: np.ndarray, build):
-    """Close the holes by their caps, then tents where caps cross something or
-    the capped mesh is flat; the faces' doubled areas."""
-    n = len(faces)
     if len(holes.caps):
         # A cap edge that is already an edge of the mesh (a neck between two
         # rim vertices) would be in three faces: that hole keeps no cap.
-        holes.drop_caps(_overfull(np.concatenate([faces, holes.caps]), n))
+        holes.drop_caps(_overfull(np.concatenate([inputs[0], holes.caps]), n))
     holes.tries = np.zeros(len(holes.rims), np.int64)
     for r, (loop, third) in enumerate(zip(holes.rims, holes.thirds, strict=True)):
         if not faces_along_normal(v, loop, third):
@@ -461,16 +392,26 @@ def _close_by_caps_and_tents(surface, holes: Holes, v: np.ndarray, faces: np.nda
         # Crossings are found on closed meshes only: once a rim has no tent
         # left to try, no other tent can be tested either.
         if len(todo) and (holes.tries[todo] >= len(TENT_HEIGHTS)).any():
-            return build()[0]
+            area, _ = build()
+            break
         holes.add_tents(v, todo)
         area, crossing = build()
         if holes.drop_rims(crossing):
             continue
-        flat = [] if flat_seen else _flat_sheets(surface, holes, area, n)
-        if not len(flat):
-            return area
-        flat_seen = True  # open sheets: their largest rims' caps lie on them
-        holes.drop_rims(flat)
+        if flat_seen or not _encloses_nothing(surface, area, n):
+            break
+        flat_seen = True  # an open sheet: its largest rim's cap lies on it
+        holes.drop_rims(np.array([holes.largest_rim(v)]))
+    if _encloses_nothing(surface, area, n):
+        raise MeshInputError(
+            "the mesh is too open to tell inside from outside: closed over its "
+            f"{len(holes.rims)} holes it encloses no volume (a flat patch?)"
+        )
+    if len(holes.apexes):  # tents stand off the input
+        holes.clearance = input_clearance(v, inputs[0])
+        sphere = bounding_sphere(surface.vertices)
+        surface.cap *= sphere[1] / radius  # the distance cap scales with the radius
+    return area, sphere
 
 
 def _crossing_rims(holes: Holes, pairs, size: np.ndarray) -> np.ndarray:
@@ -485,28 +426,6 @@ def _crossing_rims(holes: Holes, pairs, size: np.ndarray) -> np.ndarray:
     other = pairs[:, 0] >= 0
     smaller = np.where(size[rim[:, 0]] <= size[rim[:, 1]], rim[:, 0], rim[:, 1])
     return np.unique(np.where(other, smaller, rim[:, 1]))
-
-
-def _flat_sheets(surface, holes: Holes, area: np.ndarray, n: int) -> np.ndarray:
-    """The largest rim (by its vector area) of each component of the capped mesh
-    (``surface.faces``, the caps beyond ``n``; ``area`` their doubled areas)
-    that has caps and encloses no volume: an open sheet, whose largest rim's
-    cap lies on it."""
-    v, f = surface.vertices, surface.faces
-    k, label = components(f, len(v))
-    volume = np.bincount(
-        label, np.einsum("ij,ij->i", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]])), k
-    )
-    flat = is_flat(volume / 6.0, np.bincount(label, 0.5 * area, k))
-    flat &= np.bincount(label[n:], minlength=k) > 0
-    if not flat.any():
-        return np.zeros(0, np.int64)
-    rim_label = np.full(len(holes.rims), -1)
-    rim_label[holes.cap_rim] = label[n:]
-    size = np.array([rim_frame(v, r)[2] for r in holes.rims])
-    out = [np.flatnonzero(rim_label == c)[np.argmax(size[rim_label == c])]
-           for c in np.flatnonzero(flat)]  # fmt: skip
-    return np.array(out, np.int64)
 
 
 def _encloses_nothing(surface, area: np.ndarray, n: int) -> bool:

@@ -1,19 +1,16 @@
-"""Tents and shells: what closes a hole whose flat cap cannot (an open sheet's,
-or one that would cross the mesh), and how coarsely a remesh may follow them.
+"""Tents: what closes a hole whose flat cap cannot (an open sheet's, or one
+that would cross the mesh), and how coarsely a remesh may follow them.
 
 A tent (:func:`tent`) is a dome over the rim, leaving it square to the faces
-on it. :mod:`._mesh_holes` tries it at :data:`TENT_HEIGHTS` in turn. A sheet
-seen from one side (a height field, a single-view range scan) is closed at
-once by its :func:`shell`: a copy swept back behind it, joined to it by walls
-along every rim. The part of the remesh on either is cut off afterwards, so
-:func:`tent_slack` lets the size and distance bounds grow with the distance
-from the input there.
+on it. :mod:`._mesh_holes`
+tries it at :data:`TENT_HEIGHTS` in turn; the part of the remesh on it is cut
+off afterwards, so :func:`tent_slack` lets the size and distance bounds
+grow with the distance from the input there.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog
 from scipy.spatial import cKDTree
 
 from .._vectors import row_norms
@@ -85,98 +82,6 @@ def tent(vertices: np.ndarray, loop: np.ndarray, third: np.ndarray, first: int, 
         np.c_[ids[-1, j], ids[-1, i], np.full(k, first + m * k)],
     ])  # fmt: skip
     return np.concatenate([*rings, top[None]]), tri.astype(np.int64)
-
-
-#: A sheet seen from one side (:func:`sheet_direction`) has at most this share
-#: of its area on faces turned away from its direction (a scan's grazing faces).
-SHELL_AWAY = 0.01
-#: A shell's depth behind its sheet, in diagonals of the sheet's bounding box,
-#: and the share of the sheet's relief that its back keeps (a scan's noise,
-#: swept back unchanged, would be refined there for nothing).
-SHELL_DEPTH, SHELL_RELIEF = 0.25, 0.1
-
-
-def sheet_direction(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
-    """The unit direction that the faces' normals make the largest least angle
-    with (:func:`_facing`), when all but :data:`SHELL_AWAY` of their area faces
-    along it (a sheet seen from that side); None otherwise (a solid with holes
-    faces every way)."""
-    n = np.cross(vertices[faces[:, 1]] - vertices[faces[:, 0]],
-                 vertices[faces[:, 2]] - vertices[faces[:, 0]])  # fmt: skip
-    area = row_norms(n)
-    total = n.sum(axis=0)
-    size = float(np.linalg.norm(total))
-    if size == 0.0:
-        return None
-    d = total / size
-    unit = n[area > 0] / area[area > 0, None]
-    if float((unit @ d).min()) <= 0.0:
-        d = _facing(unit, d)
-    away = float(area[n @ d < 0].sum())
-    return d if away <= SHELL_AWAY * float(area.sum()) else None
-
-
-def _facing(unit: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """The direction ``x`` in the cube ``[-1, 1]^3`` that maximizes the least
-    ``unit @ x`` (a linear programme over the normals ``unit`` (k, 3); the
-    faces far from binding at ``d`` join it only when the solution turns from
-    them), normalized; ``d`` when there is none."""
-    work = unit @ d < 0.5
-    for _ in range(8):
-        a = np.c_[-unit[work], np.ones(int(work.sum()))]
-        res = linprog([0.0, 0.0, 0.0, -1.0], A_ub=a, b_ub=np.zeros(len(a)),
-                      bounds=[(-1.0, 1.0)] * 3 + [(-2.0, 2.0)], method="highs")  # fmt: skip
-        if res.status != 0 or not np.any(res.x[:3]):
-            return d
-        x, least = res.x[:3], res.x[3]
-        late = ~work & (unit @ x < least)
-        if not late.any():
-            return x / float(np.linalg.norm(x))
-        work |= late
-    return d
-
-
-def shell(vertices: np.ndarray, faces: np.ndarray, rims: list[np.ndarray],
-          thirds: list[np.ndarray], d: np.ndarray):  # fmt: skip
-    """A sheet's shell: a copy of it swept back against its direction ``d``
-    (:func:`sheet_direction`) by :data:`SHELL_DEPTH` and flattened to
-    :data:`SHELL_RELIEF` of its relief, joined to it by walls along ``d`` on
-    every rim (loops of vertex ids in the order of the faces' half-edges;
-    ``thirds``: the third vertex of the face on each rim edge).
-    Every point of a face is swept back by at least the depth, so where the
-    sheet is a graph along ``d`` the shell crosses nothing; elsewhere the
-    caller's crossing test finds out. Returns the copy's vertices (vertex
-    ``j``'s as ``len(vertices) + j``) and the triangles, the copy's faces
-    turned over and the walls oriented against the rims' half-edges; None
-    where a wall would meet the face on its rim edge at less than
-    :data:`SHELL_WEDGE` (a scan's rim where the surface dives along ``d``:
-    the wedge between them would be refined below the spacing floor)."""
-    m = len(vertices)
-    a = np.concatenate(rims)
-    b = np.concatenate([np.roll(r, -1) for r in rims])
-    if _least_wedge(vertices, a, b, np.concatenate(thirds), d) < SHELL_WEDGE:
-        return None
-    used = vertices[np.unique(faces)]
-    h = vertices @ d
-    lo = float(h[np.unique(faces)].min())
-    depth = SHELL_DEPTH * float(np.linalg.norm(used.max(axis=0) - used.min(axis=0)))
-    back = vertices - (depth + (1.0 - SHELL_RELIEF) * np.maximum(h - lo, 0.0))[:, None] * d
-    walls = np.concatenate([np.c_[b, a, a + m], np.c_[b, a + m, b + m]])
-    return back, np.concatenate([faces[:, ::-1] + m, walls]).astype(np.int64)
-
-
-#: The least angle (degrees) a shell's wall may make inside with the face on
-#: its rim edge (:func:`shell`).
-SHELL_WEDGE = 30.0
-
-
-def _least_wedge(v: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray, d) -> float:
-    """The least angle (degrees) inside a shell between the faces ``(a, b, c)``
-    on rim edges ``(a, b)`` and the walls along ``-d`` from those edges."""
-    face = np.cross(v[b] - v[a], v[c] - v[a])
-    wall = np.cross(v[a] - v[b], -np.broadcast_to(d, face.shape))  # of (b, a, a - d)
-    cos = np.einsum("ij,ij->i", face, wall) / np.maximum(row_norms(face) * row_norms(wall), 1e-300)
-    return float(180.0 - np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).max(initial=0.0))
 
 
 #: A tent closes a rim whose faces on it turn less than this from the rim's
