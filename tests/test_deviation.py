@@ -368,3 +368,25 @@ def test_a_self_intersecting_input_is_checked_on_its_union_surface():
     assert outside.sum() <= len(p) < len(every)
     mesh = rdmesh.mesh_surface(s, radius_bound=0.15, distance_bound=0.015)
     assert mesh.stats["distance_check"] is not None
+
+
+def test_the_caps_and_tents_over_holes_are_not_measured():
+    """They are cut off: no probe on them, and no output edge nearest them is
+    beyond the bound (a tent followed to the distance bound cost the open
+    sheets of the real-data benchmark about 40 % of their time)."""
+    u, w = np.meshgrid(np.linspace(-1, 1, 30), np.linspace(-1, 1, 30), indexing="ij")
+    v = np.c_[u.ravel(), w.ravel(), 0.15 * np.sin(3 * u.ravel()) * np.cos(2 * w.ravel())]
+    i = np.arange(900).reshape(30, 30)
+    a, b, c, d = i[:-1, :-1].ravel(), i[1:, :-1].ravel(), i[1:, 1:].ravel(), i[:-1, 1:].ravel()
+    surface = rdmesh.MeshSurface((v, np.r_[np.c_[a, b, c], np.c_[a, c, d]]))
+    assert len(surface.vertices) > surface.holes.base  # a tent's vertices
+    stage = DeviationStage(surface, 1e-4)
+    m = surface.input_face_count
+    on_input = MeshDistance(surface.vertices, surface.faces[:m], side=False).query(stage._probes)
+    assert on_input[0].max() < 1e-12 and len(stage._probes) >= 900
+    # An edge beside the tent's top, far from the input, is settled.
+    top = surface.vertices[-1] * 1.1
+    V = np.r_[surface.vertices[:900], [top + [0.01, 0, 0], top - [0.01, 0, 0]]]
+    assert surface.distance(top[None])[0] > 0.01
+    d, _ = stage._output_to_input(V, np.array([[900, 901], [0, 1]]))
+    assert d[0] == 0.0 and d[1] < 1e-12

@@ -126,10 +126,12 @@ class DeviationStage:
     _near: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        v, f = self.surface.vertices, self.surface.faces
+        # The input's own faces: the caps and tents over its holes are cut off.
+        m = self.surface.input_face_count
+        v, f = self.surface.vertices, self.surface.faces[:m]
         # A closed mesh that intersects itself: only the faces on its union's surface.
         sides = self.surface._face_sides
-        kept = None if sides is None else sides.code == 1
+        kept = None if sides is None else sides.code[:m] == 1
         self._probes = input_probes(v, f, EDGE_SPACING * self.bound, kept)
         n = len(self._probes)
         # Input points next to a protecting ball are never proposed.
@@ -189,8 +191,10 @@ class DeviationStage:
         on_face = _on_one_face(self.surface, V, edges)
         settled, edges = edges[on_face], edges[~on_face]
         probes = 0.5 * (V[edges[:, 0]] + V[edges[:, 1]])
-        near, _ = self.surface.closest_points(probes)
+        near, face = self.surface.closest_points(probes)
         d = np.linalg.norm(probes - near, axis=1)
+        # Nearest a cap or tent: that part of the output is cut off.
+        d[face >= self.surface.input_face_count] = 0.0
         self._ok_edges.add(np.concatenate([settled, edges[d <= self.bound]]))
         return d, near
 
@@ -236,15 +240,16 @@ class DeviationStage:
 def input_probes(
     vertices: np.ndarray, faces: np.ndarray, spacing: float, kept: np.ndarray | None = None
 ) -> np.ndarray:
-    """The input's vertices, then points along its creased edges (whose two
-    faces are not coplanar), at most ``spacing`` apart and at least the
-    midpoint: a long crease can stand out of the output between its ends.
-    With ``kept`` ((m,) bool), only vertices and edges all of whose vertices'
-    faces are kept."""
+    """The vertices of the input's ``faces``, then points along its creased
+    edges (whose two faces are not coplanar), at most ``spacing`` apart and at
+    least the midpoint: a long crease can stand out of the output between its
+    ends. With ``kept`` ((m,) bool), only vertices and edges all of whose
+    vertices' faces are kept."""
     v = vertices
     normals = unit_rows(np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]]))
     creased = sharp_edges(faces, normals, CREASE_ANGLE)
-    ok = np.ones(len(v), bool)
+    ok = np.zeros(len(v), bool)
+    ok[faces.reshape(-1)] = True
     if kept is not None:
         np.logical_and.at(ok, faces.reshape(-1), np.repeat(kept, 3))
         creased = creased[ok[creased].all(axis=1)]
