@@ -193,8 +193,7 @@ class DeviationStage:
         probes = 0.5 * (V[edges[:, 0]] + V[edges[:, 1]])
         near, face = self.surface.closest_points(probes)
         d = np.linalg.norm(probes - near, axis=1)
-        # Nearest a cap or tent: that part of the output is cut off.
-        d[face >= self.surface.input_face_count] = 0.0
+        d[face >= self.surface.input_face_count] = 0.0  # nearest a cap or tent: cut off
         self._ok_edges.add(np.concatenate([settled, edges[d <= self.bound]]))
         return d, near
 
