@@ -214,14 +214,14 @@ def drop_pinch_fans(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarra
     and what closes the holes would touch itself there). Returns ``(v, f,
     dropped)``, without the vertices no face uses any more."""
     _, inverse = unique_rows(v)
-    copy = np.bincount(inverse)[inverse] > 1
-    copy[np.setdiff1d(np.arange(len(v)), rim_half_edges(f)[:, :2])] = False
-    if not copy.any():
+    on_rim = np.zeros(len(v), bool)
+    on_rim[rim_half_edges(f)[:, :2]] = True
+    ids = np.flatnonzero(on_rim & (np.bincount(inverse)[inverse] > 1))
+    if not len(ids):
         return v, f, 0
-    fans = np.bincount(f.reshape(-1), minlength=len(v))
-    ids = np.flatnonzero(copy)
+    faces_at = np.bincount(f.reshape(-1), minlength=len(v))
     # Per point, the copy with the most faces (then the lowest id) stays.
-    order = ids[np.lexsort((ids, -fans[ids], inverse[ids]))]
+    order = ids[np.lexsort((ids, -faces_at[ids], inverse[ids]))]
     first = np.r_[True, inverse[order[1:]] != inverse[order[:-1]]]
     gone = np.zeros(len(v), bool)
     gone[order[~first]] = True
