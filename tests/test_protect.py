@@ -281,3 +281,39 @@ def test_protection_by_far_more_balls_than_the_curves_ask_for_is_refused():
     check_invariants(protect(pair(0.02), size, 2.0))
     with pytest.raises(FeatureError, match=r"\d+ balls .* more than 1000 times"):
         protect(pair(1e-4), size, 2.0)
+
+
+def test_the_angle_bound_is_held_next_to_small_balls_where_the_point_lands_out():
+    """A 25-degree facet at a ball's centre: spared by Mesh_3's relaxation
+    (20 degrees), held to 30 when the user chose small balls and the facet's
+    surface ball is at least HOLD_RATIO ball radii, spared again below that
+    (its refinement point would split the angle at the centre further)."""
+    from rdmesh.refine.criteria import HOLD_RATIO, FacetCriteria
+
+    rho, d, half = 0.1, 0.12, np.radians(12.5)
+    corners = np.array([[[0, 0, 0], [d * np.cos(half), d * np.sin(half), 0],
+                         [d * np.cos(half), -d * np.sin(half), 0]]])  # fmt: skip
+    w = np.array([[rho**2, 0.0, 0.0]])
+    centre = corners.mean(axis=1)
+
+    def bad(hold, radius):
+        c = FacetCriteria(30.0, 1.0, hold_at_small_balls=hold)
+        return bool(c.bad(corners, centre, np.array([radius]), weights=w)[0])
+
+    assert not bad(False, 0.1)
+    assert bad(True, HOLD_RATIO * rho * 1.01)
+    assert not bad(True, HOLD_RATIO * rho * 0.99)
+
+
+def test_small_balls_leave_fewer_triangles_below_the_angle_bound():
+    """Two spheres' union (a circular crease): with edge_size 0.3 times the
+    radius bound, fewer triangles below 30 degrees than with the default
+    balls, the crease kept either way."""
+    text = "min(sqrt((x-0.4)**2+y**2+z**2)-0.6, sqrt((x+0.4)**2+y**2+z**2)-0.6)"
+    s = rdmesh.ImplicitSurface.from_expression(text, ((0, 0, 0), 2.0))
+    kw = dict(radius_bound=0.1, distance_bound=0.01)
+    default = rdmesh.mesh_surface(s, **kw)
+    small = rdmesh.mesh_surface(s, edge_size=0.03, **kw)
+    assert default.features.held and small.features.held
+    assert (small.angles < 29.99).sum() < (default.angles < 29.99).sum()
+    assert small.angles.min() >= 20.0
