@@ -27,7 +27,11 @@ complete, the seeding's level::
 
     python benchmarks/real_data.py [--quick] [--out results/real-data-DATE.json]
         [--only remesh|volume] [--cases bone,genus-2] [--sizes 0.01,0.003]
-        [--repeat 3] [--inputs standard|more|all]
+        [--repeat 3] [--inputs standard|more|all] [--edge-size 0.3]
+
+``--edge-size K`` gives rdmesh protecting balls ``K`` times the radius bound
+apart (``edge_size``; default: the radius bound): at 0.3 or less the angle
+bound is held next to them too (``rdmesh.refine.criteria.SMALL_BALL``).
 
 ``--repeat N`` remeshes each case N times with each tool, alternating, and
 records the median time (every time in ``times``): on a shared machine one
@@ -299,12 +303,13 @@ def hausdorff(v, f, ref, n: int = 20000, seed: int = 0) -> float:
     return float(max(d1, d2))
 
 
-def run_rdmesh_remesh(ref, r: float) -> dict:
+def run_rdmesh_remesh(ref, r: float, edge: float | None = None) -> dict:
     import rdmesh
 
     t = time.perf_counter()
     try:
-        m = rdmesh.mesh_surface(ref, radius_bound=r, distance_bound=r / 10)
+        size = None if edge is None else edge * r
+        m = rdmesh.mesh_surface(ref, radius_bound=r, distance_bound=r / 10, edge_size=size)
         note = ""
     except rdmesh.BudgetExceeded as exc:
         m, note = exc.mesh, str(exc)
@@ -357,7 +362,11 @@ def _median_seconds(results: list, key) -> tuple[float, list[float]]:
 
 
 def remesh_rows(
-    sizes: tuple[float, ...], cases: str | None = None, repeat: int = 1, inputs: str = "standard"
+    sizes: tuple[float, ...],
+    cases: str | None = None,
+    repeat: int = 1,
+    inputs: str = "standard",
+    edge: float | None = None,
 ) -> list[dict]:
     import rdmesh
 
@@ -390,10 +399,10 @@ def remesh_rows(
             try:
                 import pymeshlab  # noqa: F401
 
-                runs = [partial(run_rdmesh_remesh, ref, r),
+                runs = [partial(run_rdmesh_remesh, ref, r, edge),
                         partial(run_pymeshlab, iv, faces, r)]  # fmt: skip
             except ImportError:
-                runs = [partial(run_rdmesh_remesh, ref, r)]
+                runs = [partial(run_rdmesh_remesh, ref, r, edge)]
             done = _alternating(runs, repeat)
             run = dict(done[0][0])
             m = run.pop("mesh")
@@ -535,6 +544,12 @@ def main(argv=None) -> int:
         help="remeshing: the issue's inputs, more real meshes (more_mesh_inputs), or both",
     )
     ap.add_argument(
+        "--edge-size",
+        type=float,
+        default=None,
+        help="remeshing: rdmesh's edge_size as a fraction of the radius bound",
+    )
+    ap.add_argument(
         "--reference-factor",
         type=int,
         default=2,
@@ -545,6 +560,8 @@ def main(argv=None) -> int:
         ap.error("--repeat must be at least 1")
     if args.reference_factor < 1:
         ap.error("--reference-factor must be at least 1")
+    if args.edge_size is not None and not args.edge_size > 0:
+        ap.error("--edge-size must be positive")
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)  # before the runs, not after
     sizes = (0.01,) if args.quick else (0.01, 0.003)
@@ -552,7 +569,7 @@ def main(argv=None) -> int:
         sizes = tuple(float(x) for x in args.sizes.split(","))
     rows = []
     if args.only != "volume":
-        rows += remesh_rows(sizes, args.cases, args.repeat, args.inputs)
+        rows += remesh_rows(sizes, args.cases, args.repeat, args.inputs, args.edge_size)
     if args.only != "remesh":
         rows += volume_rows(args.quick, args.cases, args.reference_factor)
     from record import git_commit

@@ -54,6 +54,25 @@ def test_reference_factor_must_be_positive(capsys):
     assert "--reference-factor must be at least 1" in capsys.readouterr().err
 
 
+def test_edge_size_must_be_positive(capsys):
+    with pytest.raises(SystemExit):
+        real_data.main(["--only", "remesh", "--edge-size", "0"])
+    assert "--edge-size must be positive" in capsys.readouterr().err
+
+
+def test_edge_size_reaches_rdmesh_as_a_fraction_of_the_radius_bound(monkeypatch):
+    seen = {}
+
+    def fake(surface, **kw):
+        seen.update(kw)
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(rdmesh, "mesh_surface", fake)
+    with pytest.raises(RuntimeError, match="stop"):
+        real_data.run_rdmesh_remesh(None, 0.02, 0.3)
+    assert seen["edge_size"] == pytest.approx(0.006) and seen["radius_bound"] == 0.02
+
+
 def test_alternating_runs_change_which_goes_first():
     calls = []
     runs = [lambda: calls.append("a") or len(calls), lambda: calls.append("b") or len(calls)]
