@@ -307,8 +307,9 @@ def test_the_angle_bound_is_held_next_to_small_balls_where_the_point_lands_out()
 
 def test_small_balls_leave_fewer_triangles_below_the_angle_bound():
     """Two spheres' union (a circular crease): with edge_size 0.3 times the
-    radius bound, fewer triangles below 30 degrees than with the default
-    balls, the crease kept either way."""
+    radius bound (seeds kept 2 ball radii off), fewer triangles below 30
+    degrees than with the default balls and a larger smallest angle (24.8
+    degrees with seeds 1.2 radii off), the crease kept either way."""
     text = "min(sqrt((x-0.4)**2+y**2+z**2)-0.6, sqrt((x+0.4)**2+y**2+z**2)-0.6)"
     s = rdmesh.ImplicitSurface.from_expression(text, ((0, 0, 0), 2.0))
     kw = dict(radius_bound=0.1, distance_bound=0.01)
@@ -316,4 +317,4 @@ def test_small_balls_leave_fewer_triangles_below_the_angle_bound():
     small = rdmesh.mesh_surface(s, edge_size=0.03, **kw)
     assert default.features.held and small.features.held
     assert (small.angles < 29.99).sum() < (default.angles < 29.99).sum()
-    assert small.angles.min() >= 20.0
+    assert small.angles.min() > default.angles.min()

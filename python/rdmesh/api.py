@@ -140,11 +140,13 @@ def mesh_surface(
         relaxed as in CGAL's Mesh_3 (``SurfaceMesh.features`` says what
         held). With ``edge_size`` at most 0.3 times a numeric
         ``radius_bound``, the angle bound is held next to the balls too,
-        wherever the refinement point lands at least 0.7 ball radii out:
-        on the benchmarks' thin-handled genus-2 solid that gave 30 degrees
-        everywhere (a measurement, not a guarantee), for more vertices
-        along the curves. Boissonnat-Oudot only: "topological-ball" and ``certify``
-        refuse given feature curves. Balls placed beforehand
+        wherever the refinement point lands at least 0.7 ball radii out,
+        and seeds are kept 2 ball radii off: on the benchmarks'
+        thin-handled genus-2 solid that gave 30 degrees everywhere, and on
+        crease-dominated shapes far fewer triangles below the bound (a
+        measurement, not a guarantee), for more vertices along the curves.
+        Boissonnat-Oudot only: "topological-ball" and ``certify`` refuse
+        given feature curves. Balls placed beforehand
         (``features=ProtectingBalls(...)``) are inserted as they are and
         not repaired: a failed feature check makes the mesh incomplete.
         The creases of an expression's ``min``, ``max`` and ``abs`` and of

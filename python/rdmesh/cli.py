@@ -291,7 +291,9 @@ def _add_run_options(p: argparse.ArgumentParser, method: bool) -> None:
         "--edge-size",
         type=_positive_float,
         metavar="L",
-        help="largest mesh edge along feature curves (default: the radius bound)",
+        help="largest mesh edge along feature curves (default: the radius bound); at most "
+        "0.3 times the radius bound, the angle bound is held next to the curves too where "
+        "refinement can",
     )
     feat = p.add_mutually_exclusive_group()
     feat.add_argument(

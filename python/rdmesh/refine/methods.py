@@ -156,7 +156,8 @@ def boissonnat_oudot(
             graph, abandoned = None, str(exc)
     if balls is not None:
         # A seed in a ball would be hidden, or a vertex next to a curve.
-        scan = replace(scan, seeds=scan.seeds[~balls.inside(scan.seeds, SEED_CLEARANCE)])
+        clear = SMALL_BALL_SEED_CLEARANCE if criteria.hold_at_small_balls else SEED_CLEARANCE
+        scan = replace(scan, seeds=scan.seeds[~balls.inside(scan.seeds, clear)])
     if clipped and balls is None and boundary is not None and len(boundary.points):
         # Unprotected: seeds in the band along the clipping surface could be
         # boundary vertices, so the boundary's samples come first.
@@ -250,6 +251,11 @@ KINK_RETRIES = 20
 
 #: Seeds closer to a protecting ball than this, times its radius, are dropped.
 SEED_CLEARANCE = 1.2
+#: The same where the angle bound is held next to small balls
+#: (``FacetCriteria.hold_at_small_balls``): seeds 1.2-1.5 radii out make a
+#: ring of triangles at the ball's centre too thin to hold the bound and too
+#: small to refine (two spheres' union: 24.8 degrees with 1.2, 30.0 with 2).
+SMALL_BALL_SEED_CLEARANCE = 2.0
 
 
 def _edge_sizing(
