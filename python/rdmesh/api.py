@@ -9,6 +9,7 @@ from dataclasses import replace
 from ._validate import box_in_sphere, choice, integer, positive
 from .features.given import ProtectingBalls
 from .io.result import SurfaceMesh
+from .refine.ball_spacing import small_by_default
 from .refine.criteria import SMALL_BALL, FacetCriteria, Sizing
 from .refine.feature_curves import has_given_curves, search_creases
 from .refine.mesher import Budget, Mesher, forget_crossings, restart
@@ -132,7 +133,10 @@ def mesh_surface(
         Largest length of the mesh edges along feature curves (CGAL's
         ``edge_size``): the spacing of the protecting balls' centres, whose
         radii are 0.9 times their smaller spacing. A number or a sizing
-        field. Default (None): the radius bound. Feature curves (creases,
+        field. Default (None): the radius bound, or 0.3 times it on a
+        :class:`MeshSurface` whose sharp-edge curves are short against its
+        area (at most 2 % more vertices: :mod:`rdmesh.refine.ball_spacing`).
+        Feature curves (creases,
         sharp edges, clip boundaries: ``ImplicitSurface(features=...)``)
         are protected by balls centred on them (:mod:`rdmesh.features`),
         each consecutive pair of centres kept a mesh edge, every corner a
@@ -271,6 +275,9 @@ def mesh_surface(
         method, certify = "boissonnat-oudot", False
     if radius_bound is None and method == "boissonnat-oudot":
         criteria = FacetCriteria(angle_bound, surface.radius / 20.0, distance_bound)
+    if edge_size is None and small_by_default(surface, criteria.radius_bound):
+        edge_size = SMALL_BALL * criteria.radius_bound
+        log.info("features: protecting balls %.3g apart (short creases: small balls)", edge_size)
     if _small_balls(edge_size, criteria.radius_bound):
         criteria = replace(criteria, hold_at_small_balls=True)
     budget = Budget(max_vertices=max_vertices, time_limit=time_limit)

@@ -1,0 +1,44 @@
+"""The protecting balls' default spacing on a mesh input: small where they cost little.
+
+With balls at most :data:`~rdmesh.refine.criteria.SMALL_BALL` times the radius
+bound apart, the angle bound is held next to them too
+(``FacetCriteria.hold_at_small_balls``): on the features benchmark's shapes it
+left 5 to 90 times fewer triangles below 30 degrees, for more vertices along
+the curves (1.5 to 5 times the vertices where creases dominate). A mesh whose
+creases are short against its area gets such balls by default, when they add
+at most :data:`SMALL_BALL_COST` of the vertices the radius bound asks for;
+the others keep balls the radius bound apart. Rims of kept holes do not: there
+small balls made the smallest angles worse (benchmarks/RESULTS.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._vectors import row_norms
+from .criteria import SMALL_BALL
+
+#: Small balls by default when their count is at most this fraction of the
+#: vertex count the radius bound asks for (about area / radius_bound**2): the
+#: thin-handled genus-2 benchmark solid's crease needs 1.1 % at 1 % of its
+#: diagonal, the CAD shapes' creases 10-20 %.
+SMALL_BALL_COST = 0.02
+
+
+def small_by_default(surface, radius_bound) -> bool:
+    """Whether ``surface`` (a :class:`~rdmesh.MeshSurface` whose curves are its
+    sharp edges alone: no given curves, no kept holes) gets protecting balls
+    :data:`SMALL_BALL` times a numeric ``radius_bound`` apart by default."""
+    curves = getattr(surface, "sharp_curves", None)
+    if not curves or radius_bound is None or callable(radius_bound):
+        return False
+    holes = getattr(surface, "holes", None)
+    if isinstance(surface.features, list) and len(surface.features):
+        return False
+    if holes is not None and len(holes.curves):
+        return False
+    length = float(sum(row_norms(np.diff(c, axis=0)).sum() for c in curves))
+    v, f = surface.vertices, surface.faces[: surface.input_face_count]
+    area = 0.5 * float(row_norms(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])).sum())
+    balls = length / (SMALL_BALL * radius_bound)
+    return balls <= SMALL_BALL_COST * area / radius_bound**2
