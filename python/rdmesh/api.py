@@ -308,8 +308,8 @@ def mesh_surface(
 
 
 def _small_balls(edge_size, radius_bound) -> bool:
-    """Whether the user chose protecting balls at most :data:`SMALL_BALL` times
-    the radius bound apart (numbers both), where the angle bound is held next
+    """Whether the protecting balls are at most :data:`SMALL_BALL` times the
+    radius bound apart (numbers both), so that the angle bound is held next
     to them too."""
     numbers = edge_size is not None and not callable(edge_size) and not callable(radius_bound)
     return numbers and edge_size <= SMALL_BALL * radius_bound

@@ -32,11 +32,11 @@ def small_by_default(surface, radius_bound) -> bool:
     curves = getattr(surface, "sharp_curves", None)
     if not curves or radius_bound is None or callable(radius_bound):
         return False
-    holes = getattr(surface, "holes", None)
     if isinstance(surface.features, list) and len(surface.features):
-        return False
+        return False  # given curves: the user's
+    holes = getattr(surface, "holes", None)
     if holes is not None and len(holes.curves):
-        return False
+        return False  # kept rims: small balls made their angles worse
     length = float(sum(row_norms(np.diff(c, axis=0)).sum() for c in curves))
     v, f = surface.vertices, surface.faces[: surface.input_face_count]
     area = 0.5 * float(row_norms(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])).sum())

@@ -49,7 +49,8 @@ class FacetCriteria:
     hold_at_small_balls : bool
         Hold the angle bound next to protecting balls of at most
         :data:`SMALL_BALL` times the radius bound (see :func:`_held`); set
-        where the user chose balls that small (``edge_size``).
+        where the balls are at most that far apart (``edge_size``, given or
+        by default: :mod:`rdmesh.refine.ball_spacing`).
     """
 
     angle_bound: float = 30.0
@@ -187,17 +188,18 @@ RELAX_DISTANCE, RELAX_ANGLE, RELAX_SIZE = 0.1**2 * 4, 0.5**2 * 4, 0.4**2 * 4
 RELAXED_ANGLE, RELAXED_FLOOR = 20.0, 0.25
 
 
-#: Where the user's ``edge_size`` is at most SMALL_BALL times the radius
-#: bound, next to a protecting ball of radius at most SMALL_BALL times the
-#: radius bound there, the full angle bound is held for facets whose surface
-#: ball is at least HOLD_RATIO times the ball's radius. Their refinement point lies at
-#: least sqrt(1 + HOLD_RATIO**2) ball radii from the ball's centre, so it does
-#: not split the angle at the centre into thinner ones (below about 0.6 of the
-#: radius it does, and refinement there ends only at the relaxed bound). On the
-#: thin-handled genus-2 benchmark solid, with balls 0.3 of the radius bound
-#: apart (``edge_size``), 30 degrees held at 1 % and 0.3 % of the diagonal;
-#: with HOLD_RATIO 0.35, the CAD shapes' smallest angles fell to 12-13 degrees.
-#: Not by default: next to the small corner balls of the default spacing it
+#: Where the balls are at most SMALL_BALL times the radius bound apart
+#: (``edge_size``), next to a protecting ball of radius at most SMALL_BALL
+#: times the radius bound there, the full angle bound is held for facets whose
+#: surface ball is at least HOLD_RATIO times the ball's radius. Their
+#: refinement point lies at least sqrt(1 + HOLD_RATIO**2) ball radii from the
+#: ball's centre, so it does not split the angle at the centre into thinner
+#: ones (below about 0.6 of the radius it does, and refinement there ends only
+#: at the relaxed bound). On the thin-handled genus-2 benchmark solid, with
+#: balls 0.3 of the radius bound apart, 30 degrees held at 1 % and 0.3 % of
+#: the diagonal; with HOLD_RATIO 0.35, the CAD shapes' smallest angles fell to
+#: 12-13 degrees.
+#: Not with balls a radius bound apart: next to their small corner balls it
 #: changed the CAD meshes (fillet_chamfer: 21.1 degrees against 24.2).
 SMALL_BALL, HOLD_RATIO = 0.3, 0.7
 
