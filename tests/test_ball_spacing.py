@@ -60,3 +60,7 @@ def test_a_short_crease_gets_small_balls_and_30_degrees_by_default():
         assert m.features.held and m.complete and m.report["euler"] == [-2]
     assert small.angles.min() >= 29.99
     assert (wide.angles < 29.99).sum() > 0
+    assert small.features.angle_held and not wide.features.angle_held
+    assert "held" in small.report["features"]["angle_at_balls"]
+    assert "relaxed" in wide.report["features"]["angle_at_balls"]
+    assert "angle bound held" in small.summary() and "angle bound held" not in wide.summary()

@@ -47,6 +47,10 @@ class MeshFeatures:
     unresolved : (k, 3) float64
         Places where the search for creases in an expression or CSG tree
         could neither exclude nor trace one (``report["creases"]``).
+    angle_held : bool
+        Whether the balls were small enough (at most 0.3 size bounds apart)
+        for the angle bound to be held next to them where the refinement
+        point lands out; otherwise Mesh_3's relaxation (20 degrees floor).
     """
 
     curves: list[np.ndarray] = field(default_factory=list)
@@ -60,6 +64,7 @@ class MeshFeatures:
     repairs: int = 0
     balls: int = 0
     unresolved: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    angle_held: bool = False
 
     def as_report(self) -> dict[str, Any]:
         """The report's ``features`` entry (plain types)."""
@@ -76,6 +81,9 @@ class MeshFeatures:
             "unresolved": len(self.unresolved),
             "sources": sorted(set(self.sources)),
             "level": "proven" if self.held else "failed",
+            "angle_at_balls": "held where refinement can (small balls)"
+            if self.angle_held
+            else "relaxed as in Mesh_3, 20 degrees floor",
             "what": "every consecutive pair of ball centres is a mesh edge with two triangles "
             "(one on a boundary curve) and every corner a mesh vertex (checked on the output)",
         }

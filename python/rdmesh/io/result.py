@@ -260,10 +260,13 @@ def _summary(mesh: SurfaceMesh) -> str:
     if mesh.features is not None:
         f = mesh.features
         lines.append(
-            f"features: {len(f.curves)} curves, {len(f.corners)} corners kept"
-            if f.held
-            else f"features: {len(f.curves)} curves, {len(f.corners)} corners; NOT all kept "
-            f"({f.edges_kept} of {f.edges} curve edges, {f.corners_kept} corners)"
+            (
+                f"features: {len(f.curves)} curves, {len(f.corners)} corners kept"
+                if f.held
+                else f"features: {len(f.curves)} curves, {len(f.corners)} corners; NOT all kept "
+                f"({f.edges_kept} of {f.edges} curve edges, {f.corners_kept} corners)"
+            )
+            + ("; small balls, angle bound held next to them" if f.angle_held else "")
         )
     creases = mesh.report.get("creases") if mesh.report else None
     if creases is not None:

@@ -596,6 +596,7 @@ def _result(
             plan.balls, plan.features, m.ball_ids, ids, mesh.faces, len(mesh.vertices)
         )
         mesh.features.repairs = m.repairs
+        mesh.features.angle_held = m.criteria.hold_at_small_balls
         if m.creases is not None:
             mesh.features.unresolved = m.creases.unresolved
     report_interrupted = False
