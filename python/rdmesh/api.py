@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import replace
 
 from ._validate import box_in_sphere, choice, integer, positive
 from .features.given import ProtectingBalls
 from .io.result import SurfaceMesh
-from .refine.ball_spacing import small_by_default
-from .refine.criteria import SMALL_BALL, FacetCriteria, Sizing
+from .refine.ball_spacing import with_ball_spacing
+from .refine.criteria import FacetCriteria, Sizing
 from .refine.feature_curves import has_given_curves, search_creases
 from .refine.mesher import Budget, Mesher, forget_crossings, restart
 from .refine.methods import METHODS, TOPOLOGIES
@@ -275,11 +274,7 @@ def mesh_surface(
         method, certify = "boissonnat-oudot", False
     if radius_bound is None and method == "boissonnat-oudot":
         criteria = FacetCriteria(angle_bound, surface.radius / 20.0, distance_bound)
-    if edge_size is None and small_by_default(surface, criteria.radius_bound):
-        edge_size = SMALL_BALL * criteria.radius_bound
-        log.info("features: protecting balls %.3g apart (short creases: small balls)", edge_size)
-    if _small_balls(edge_size, criteria.radius_bound):
-        criteria = replace(criteria, hold_at_small_balls=True)
+    criteria, edge_size = with_ball_spacing(surface, criteria, edge_size)
     budget = Budget(max_vertices=max_vertices, time_limit=time_limit)
     mesher = Mesher(
         surface,
@@ -305,14 +300,6 @@ def mesh_surface(
         return _kept_or_filled(mesher)
     finally:
         forget_crossings(surface)  # their memory goes with the run
-
-
-def _small_balls(edge_size, radius_bound) -> bool:
-    """Whether the protecting balls are at most :data:`SMALL_BALL` times the
-    radius bound apart (numbers both), so that the angle bound is held next
-    to them too."""
-    numbers = edge_size is not None and not callable(edge_size) and not callable(radius_bound)
-    return numbers and edge_size <= SMALL_BALL * radius_bound
 
 
 def _kept_or_filled(mesher: Mesher):

@@ -1,4 +1,5 @@
-"""The protecting balls' default spacing on a mesh input: small where they cost little.
+"""The protecting balls' spacing: small by default on a mesh input where they
+cost little, and whether the angle bound is held next to them.
 
 With balls at most :data:`~rdmesh.refine.criteria.SMALL_BALL` times the radius
 bound apart, the angle bound is held next to them too
@@ -13,10 +14,16 @@ small balls made the smallest angles worse (benchmarks/RESULTS.md).
 
 from __future__ import annotations
 
+import logging
+from dataclasses import replace
+
 import numpy as np
 
 from .._vectors import row_norms
-from .criteria import SMALL_BALL
+from ..surfaces._mesh_input import area_vectors
+from .criteria import SMALL_BALL, FacetCriteria
+
+log = logging.getLogger("rdmesh")
 
 #: Small balls by default when their count is at most this fraction of the
 #: vertex count the radius bound asks for (about area / radius_bound**2): the
@@ -38,7 +45,27 @@ def small_by_default(surface, radius_bound) -> bool:
     if holes is not None and len(holes.curves):
         return False  # kept rims: small balls made their angles worse
     length = float(sum(row_norms(np.diff(c, axis=0)).sum() for c in curves))
-    v, f = surface.vertices, surface.faces[: surface.input_face_count]
-    area = 0.5 * float(row_norms(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])).sum())
+    faces = surface.faces[: surface.input_face_count]  # not the caps over holes
+    area = float(row_norms(area_vectors(surface.vertices, faces)).sum())
     balls = length / (SMALL_BALL * radius_bound)
     return balls <= SMALL_BALL_COST * area / radius_bound**2
+
+
+def small_balls(edge_size, radius_bound) -> bool:
+    """Whether the protecting balls are at most :data:`SMALL_BALL` times the
+    radius bound apart (numbers both), so that the angle bound is held next
+    to them too."""
+    numbers = edge_size is not None and not callable(edge_size) and not callable(radius_bound)
+    return numbers and edge_size <= SMALL_BALL * radius_bound
+
+
+def with_ball_spacing(surface, criteria: FacetCriteria, edge_size):
+    """``(criteria, edge_size)`` for a run: the default spacing where none is
+    given (:func:`small_by_default`), and the criteria holding the angle bound
+    next to small balls (:func:`small_balls`)."""
+    if edge_size is None and small_by_default(surface, criteria.radius_bound):
+        edge_size = SMALL_BALL * criteria.radius_bound
+        log.info("features: protecting balls %.3g apart (short creases: small balls)", edge_size)
+    if small_balls(edge_size, criteria.radius_bound):
+        criteria = replace(criteria, hold_at_small_balls=True)
+    return criteria, edge_size
