@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import rdmesh
-from rdmesh.refine.ball_spacing import SMALL_BALL_COST, small_by_default
+from rdmesh.refine.ball_spacing import SMALL_BALL_COST, small_balls, small_by_default
 from rdmesh.refine.criteria import SMALL_BALL
 
 
@@ -64,3 +64,17 @@ def test_a_short_crease_gets_small_balls_and_30_degrees_by_default():
     assert "held" in small.report["features"]["angle_at_balls"]
     assert "relaxed" in wide.report["features"]["angle_at_balls"]
     assert "angle bound held" in small.summary() and "angle bound held" not in wide.summary()
+
+
+def test_balls_are_small_only_against_a_numeric_radius_bound():
+    assert small_balls(0.03, 0.1) and not small_balls(0.04, 0.1)
+    assert not small_balls(None, 0.1) and not small_balls(0.03, None)
+    assert not small_balls(lambda x: x, 0.1) and not small_balls(0.03, lambda x: x)
+
+
+def test_an_edge_size_without_a_radius_bound_is_meshed():
+    """The topological-ball method needs no radius bound: a given edge_size
+    there used to raise TypeError (the spacing compared against None)."""
+    s = rdmesh.ImplicitSurface.from_expression("x**2+y**2+z**2-1", ((0, 0, 0), 2.0))
+    m = rdmesh.mesh_surface(s, method="topological-ball", edge_size=0.1)
+    assert m.complete and m.report["euler"] == [2]

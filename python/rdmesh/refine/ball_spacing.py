@@ -53,10 +53,11 @@ def small_by_default(surface, radius_bound) -> bool:
 
 def small_balls(edge_size, radius_bound) -> bool:
     """Whether the protecting balls are at most :data:`SMALL_BALL` times the
-    radius bound apart (numbers both), so that the angle bound is held next
-    to them too."""
-    numbers = edge_size is not None and not callable(edge_size) and not callable(radius_bound)
-    return numbers and edge_size <= SMALL_BALL * radius_bound
+    radius bound apart (numbers both; no radius bound: not small), so that
+    the angle bound is held next to them too."""
+    if edge_size is None or radius_bound is None or callable(edge_size) or callable(radius_bound):
+        return False
+    return edge_size <= SMALL_BALL * radius_bound
 
 
 def with_ball_spacing(surface, criteria: FacetCriteria, edge_size):
