@@ -166,6 +166,15 @@ def test_a_volume_in_one_block_has_no_seams(client):
     assert m.report["seams"]["curves"] == 0 and m.stats["duplicates_merged"] == 0
 
 
+def test_small_seam_balls_are_reported_as_holding_the_angle_bound(client, blocks_mesh):
+    """The welded mesh says what its blocks' runs did: with edge_size at most
+    0.3 times the radius bound the angle bound was held next to the seams'
+    balls, with the default spacing relaxed as in Mesh_3."""
+    m = rdmesh.mesh_volume_blocks(torus_and_ball(), 20, client=client, edge_size=0.6, **OPTIONS)
+    assert m.report["seams"]["curves"] > 0 and m.features.angle_held
+    assert not blocks_mesh.features.angle_held
+
+
 def test_zarr_and_hdf5_volumes_are_read_by_the_tasks(client, blocks_mesh, tmp_path):
     zarr = pytest.importorskip("zarr")
     h5py = pytest.importorskip("h5py")

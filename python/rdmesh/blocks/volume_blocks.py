@@ -10,6 +10,7 @@ import numpy as np
 
 from .._validate import integer
 from ..io.result import SurfaceMesh
+from ..refine.ball_spacing import small_balls
 from .field import halo
 from .layout import Layout
 from .options import MIN_BLOCK, check_border, criteria_of, parse_options, trace_spacing
@@ -152,6 +153,9 @@ def mesh_volume_blocks(
         results, net, repairs = run.mesh(traces, edge, criteria.distance_bound)
     mesh = weld(results)
     seams = seam_check(mesh, net, layout)
+    # The blocks' runs held the angle bound next to small balls (mesh_surface's rule).
+    small = small_balls(mesh_opts.get("edge_size"), criteria.radius_bound)
+    mesh.features.angle_held = bool(len(net.balls)) and small
     mesh.report = whole_report(mesh, layout, results, seams, net, vol, repairs)
     _finish(mesh, results, seams, run, t0, repairs)
     return mesh
