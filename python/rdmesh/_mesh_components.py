@@ -44,3 +44,23 @@ def labelled_components(faces: np.ndarray, n_vertices: int) -> tuple[int, np.nda
     rank = np.full(k, -1, np.int64)
     rank[raw] = np.argsort(np.argsort(first))
     return len(raw), rank[face_raw], rank[label]
+
+
+def distinct_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct edges of a triangle set, by sorted key ``min * n + max``,
+    and the faces of each edge."""
+    F = len(faces)
+    keys = np.empty(3 * F, np.int64)
+    for j in range(3):
+        u, v, out = faces[:, j], faces[:, (j + 1) % 3], keys[j * F : (j + 1) * F]
+        # The key min * n + max written in place: one temporary per column.
+        np.minimum(u, v, out=out)
+        out *= n_vertices
+        out += np.maximum(u, v)
+    keys.sort()
+    first = np.empty(len(keys), bool)
+    first[:1] = True
+    np.not_equal(keys[1:], keys[:-1], out=first[1:])
+    start = np.flatnonzero(first)
+    del first
+    return keys[start], np.diff(start, append=len(keys))

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
+from dataclasses import replace
 
+from ._tol import REGION_LINK
 from ._validate import box_in_sphere, choice, integer, positive
 from .features.given import ProtectingBalls
 from .io.result import SurfaceMesh
@@ -13,6 +15,7 @@ from .refine.criteria import FacetCriteria, Sizing
 from .refine.feature_curves import has_given_curves, search_creases
 from .refine.mesher import Budget, Mesher, forget_crossings, restart
 from .refine.methods import METHODS, TOPOLOGIES
+from .surfaces._mesh_thin import THIN_FLOOR, THIN_GROWTH, thin_parts
 from .surfaces.expressions import Expression
 from .surfaces.mesh import filled
 from .surfaces.oracle import ImplicitSurface
@@ -296,8 +299,8 @@ def mesh_surface(
 
             with ProgressBar() as bar:
                 mesher.progress = bar.update
-                return _kept_or_filled(mesher)
-        return _kept_or_filled(mesher)
+                return _thin_parts_kept(mesher, _kept_or_filled(mesher))
+        return _thin_parts_kept(mesher, _kept_or_filled(mesher))
     finally:
         forget_crossings(surface)  # their memory goes with the run
 
@@ -328,6 +331,33 @@ def _kept_or_filled(mesher: Mesher):
         f" The input's {holes['rims']} holes could not be kept (their rims could not be "
         "protected): they are filled by the winding number's patches (holes='fill')."
     )
+    return again
+
+
+def _thin_parts_kept(mesher: Mesher, mesh: SurfaceMesh) -> SurfaceMesh:
+    """``mesh``; or, where it lost the topology of a closed input mesh and the
+    input has parts thinner than the radius bound, the run again with the bound
+    lowered near them (:mod:`rdmesh.surfaces._mesh_thin`) in the time left."""
+    topo = ((mesh.report or {}).get("input") or {}).get("topology")
+    r = mesher.criteria.radius_bound
+    limit = mesher.budget.time_limit
+    if topo is None or topo["kept"] or not isinstance(r, float) or mesher.criteria.local_bound:
+        return mesh
+    if limit is not None and mesh.stats["seconds"] >= limit:
+        return mesh
+    thin = thin_parts(mesher.surface, r, THIN_FLOOR * r)
+    if thin is None or thin.vertices_asked() > THIN_GROWTH * len(mesh.vertices):
+        return mesh
+    if limit is not None:  # the two runs share the time limit
+        mesher.budget = Budget(mesher.budget.max_vertices, limit - mesh.stats["seconds"])
+    said = thin.report(REGION_LINK * mesher.surface.radius)
+    log.warning("%s: %s; meshing it again", mesher.surface.name, said["statement"])
+    mesher.criteria = replace(mesher.criteria, local_bound=thin.sizing)
+    restart(mesher, mesher.surface)
+    again = mesher.run()
+    again.stats["seconds"] += mesh.stats["seconds"]
+    again.report["thin_parts"] = {**said, "first_run_seconds": mesh.stats["seconds"]}
+    again.report["statement"] += f" The input: {said['statement']}."
     return again
 
 

@@ -15,9 +15,9 @@ from __future__ import annotations
 import numpy as np
 
 from .._geometry import min_angles
+from .._mesh_components import distinct_edges
 from ..features.check import MeshFeatures, check_features
 from ..io.result import SurfaceMesh
-from ..topology.complex import distinct_edges
 from .layout import Layout
 from .network import Network
 from .tasks import BlockResult

@@ -51,12 +51,16 @@ class FacetCriteria:
         :data:`SMALL_BALL` times the radius bound (see :func:`_held`); set
         where the balls are at most that far apart (``edge_size``, given or
         by default: :mod:`rdmesh.refine.ball_spacing`).
+    local_bound : callable or None
+        A sizing field that lowers the radius bound where it is smaller (near
+        a mesh input's thin parts: :mod:`rdmesh.surfaces._mesh_thin`).
     """
 
     angle_bound: float = 30.0
     radius_bound: float | Sizing | None = None
     distance_bound: float | None = None
     hold_at_small_balls: bool = False
+    local_bound: Sizing | None = None
 
     def __post_init__(self) -> None:
         try:
@@ -82,7 +86,8 @@ class FacetCriteria:
         if self.radius_bound is None:
             return None
         if not callable(self.radius_bound):
-            return np.full(len(centres), self.radius_bound)
+            psi = np.full(len(centres), self.radius_bound)
+            return psi if self.local_bound is None else np.minimum(psi, self.local_bound(centres))
         try:
             psi = np.asarray(self.radius_bound(centres), dtype=np.float64)
         except Exception as exc:  # noqa: BLE001 - user code

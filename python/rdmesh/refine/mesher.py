@@ -667,11 +667,15 @@ def _result(
         mesh.complete = False
         mesh.stats["stop_reason"] = "interrupted during the report"
         raise Interrupted("interrupted during the report", mesh=mesh, reason="interrupted")
-    problems = getattr(m.surface, "input_report", lambda _: None)(mesh.unresolved)
+    report = getattr(m.surface, "input_report", None)
+    euler = None if mesh.report is None else mesh.report["euler"]
+    output = (mesh.vertices, mesh.faces, euler)
+    problems = None if report is None else report(mesh.unresolved, output)
     if problems is not None and mesh.report is not None:
         # What in the input stands in the way of its topology (issue 30).
         mesh.report["input"] = problems
-        mesh.report["statement"] += " The input: " + problems["statement"] + "."
+        if problems["statement"]:
+            mesh.report["statement"] += " The input: " + problems["statement"] + "."
     if stop:
         mesh.complete = False
         mesh.stats["stop_reason"] = stop

@@ -51,6 +51,12 @@ log = logging.getLogger("rdmesh")
 TOPOLOGIES = ("manifold", "manifold-with-boundary", "non-manifold")
 #: The tests proven by interval arithmetic in certify mode, in repair order.
 PROVEN_TESTS = ("proven_voronoi_edge", "proven_voronoi_loop", "proven_silhouette")
+#: A mesh input without a distance bound is still checked both ways at this
+#: times the radius bound: where the input has a part thinner than the bound,
+#: no sample may land on it and the part is left out of the output (a rod of
+#: radius 0.4 r between two balls: 2 components instead of 1), and the
+#: input's points there lie farther than the bound from the output.
+COVERAGE = 1.0
 
 
 @dataclass
@@ -198,8 +204,12 @@ def boissonnat_oudot(
 
 
 def _deviation(surface: ImplicitSurface, criteria: FacetCriteria, balls=None) -> list[Stage]:
-    """The distance check against a closed input mesh, when there is a bound."""
-    stage = deviation_stage(surface, criteria.distance_bound, balls)
+    """The distance check against a closed input mesh: at the distance bound,
+    or without one at :data:`COVERAGE` times a numeric radius bound."""
+    bound = criteria.distance_bound
+    if bound is None and isinstance(criteria.radius_bound, (int, float)):
+        bound = COVERAGE * criteria.radius_bound
+    stage = deviation_stage(surface, bound, balls)
     return [] if stage is None else [stage]
 
 

@@ -16,6 +16,7 @@ import numpy as np
 from .._mesh_components import components
 from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
+from ._mesh_topology import component_euler, topology_against_input
 
 log = logging.getLogger("rdmesh")
 
@@ -47,7 +48,9 @@ class MeshReport:
                 describe_regions(regions(where, REGION_LINK * float(np.ptp(self.vertices)))),
             )
 
-    def input_report(self, unresolved: np.ndarray | None = None) -> dict | None:
+    def input_report(
+        self, unresolved: np.ndarray | None = None, mesh: tuple | None = None
+    ) -> dict | None:
         """What in the input stands in the way of its topology, for the mesh's report.
 
         Parameters
@@ -56,6 +59,9 @@ class MeshReport:
             The run's refused refinement points: where two sheets of the
             input are closer than refinement can separate, the gap is
             measured there.
+        mesh : (vertices, faces, euler or None), optional
+            The output, checked against a known input topology
+            (:func:`~._mesh_topology.topology_against_input`).
 
         Returns
         -------
@@ -63,8 +69,10 @@ class MeshReport:
             ``self_intersections`` (``pairs``, ``regions``) when the input
             intersects itself, ``close_sheets`` (``gap``, ``regions``) when
             refused points lie where two sheets of the input nearly touch,
-            ``incomplete`` (the input alone rules out its topology) and a
-            ``statement``; None when there is nothing to say.
+            ``topology`` (given ``mesh`` and a known input topology),
+            ``incomplete`` (the input rules out its topology, or the output
+            does not have it) and a ``statement`` (empty when all is well);
+            None when there is nothing to say.
         """
         out: dict = {"incomplete": False}
         said = []
@@ -95,7 +103,13 @@ class MeshReport:
                     f"{describe_regions(found)}): closer than the spacing floor lets "
                     "refinement separate them"
                 )
-        if not said:
+        kept = None if mesh is None else topology_against_input(self, *mesh)
+        if kept is not None:
+            out["topology"] = kept
+            if not kept["kept"]:
+                out["incomplete"] = True
+                said.append(kept["statement"])
+        if not said and kept is None:
             return None
         out["statement"] = "; ".join(said)
         return out
@@ -108,13 +122,22 @@ class MeshReport:
 
     def input_components(self, points: np.ndarray) -> np.ndarray:
         """(N,) the input component (faces joined through shared vertices) of
-        the face closest to each of ``points``."""
-        _, face = self.closest_points(points)
+        the face closest to each of ``points`` (for this run's exact
+        crossings, the face they lie on: no query)."""
+        face = self.crossing_faces(points)
+        far = np.flatnonzero(face < 0)
+        face[far] = self.closest_points(points[far])[1]
         return self._face_component[face]
 
     @cached_property
     def _face_component(self) -> np.ndarray:
         return components(self.faces, len(self.vertices))[1]
+
+    @cached_property
+    def input_euler(self) -> np.ndarray:
+        """(k,) each input component's Euler characteristic, on its own faces."""
+        m, label = self.input_face_count, self._face_component
+        return component_euler(self.faces[:m], label[:m], int(label.max()) + 1, len(self.vertices))
 
     def unit_gradient_at(self, points: np.ndarray) -> np.ndarray:
         """(N,) bool: points where ``f``'s gradient, where it has one, is a unit

@@ -14,7 +14,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .. import core
-from .._mesh_components import labelled_components
+from .._mesh_components import distinct_edges, labelled_components
 
 
 @dataclass
@@ -132,26 +132,6 @@ def largest_per_group(
 def largest_incident(group: np.ndarray, facet: np.ndarray, radius: np.ndarray) -> np.ndarray:
     """The distinct facets that :func:`largest_per_group` picks, ascending."""
     return np.unique(largest_per_group(group, facet, radius))
-
-
-def distinct_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
-    """The distinct edges of a triangle set, by sorted key ``min * n + max``,
-    and the faces of each edge."""
-    F = len(faces)
-    keys = np.empty(3 * F, np.int64)
-    for j in range(3):
-        u, v, out = faces[:, j], faces[:, (j + 1) % 3], keys[j * F : (j + 1) * F]
-        # The key min * n + max written in place: one temporary per column.
-        np.minimum(u, v, out=out)
-        out *= n_vertices
-        out += np.maximum(u, v)
-    keys.sort()
-    first = np.empty(len(keys), bool)
-    first[:1] = True
-    np.not_equal(keys[1:], keys[:-1], out=first[1:])
-    start = np.flatnonzero(first)
-    del first
-    return keys[start], np.diff(start, append=len(keys))
 
 
 def component_topology(faces: np.ndarray, n_vertices: int) -> tuple[list[int], list[int]]:
