@@ -121,9 +121,8 @@ class MeshReport:
         return self.sign_method == "side" and not len(self.self_intersections)
 
     def input_components(self, points: np.ndarray) -> np.ndarray:
-        """(N,) the input component (faces joined through shared vertices) of
-        the face closest to each of ``points`` (for this run's exact
-        crossings, the face they lie on: no query)."""
+        """(N,) the input component (faces sharing vertices) of the face
+        closest to each of ``points`` (that of an exact crossing: no query)."""
         face = self.crossing_faces(points)
         far = np.flatnonzero(face < 0)
         face[far] = self.closest_points(points[far])[1]
