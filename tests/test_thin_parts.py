@@ -59,7 +59,9 @@ def test_an_output_without_the_inputs_topology_is_found():
     ico = trimesh.creation.icosphere(subdivisions=2)
     surface = rdmesh.MeshSurface(ico, feature_angle=None)
     v, f = surface.vertices, surface.faces
-    assert topology_against_input(surface, v, f)["kept"]
+    same = topology_against_input(surface, v, f)
+    assert same["kept"] and same["oriented"]
+    assert not topology_against_input(surface, v, np.r_[f[:1, ::-1], f[1:]])["oriented"]
     holed = topology_against_input(surface, v, f[1:])
     assert not holed["kept"] and holed["output"]["euler"] == [1]
     assert "does not have the input's topology" in holed["statement"]
@@ -99,6 +101,7 @@ def test_a_thin_rod_is_kept_by_meshing_again_with_the_bound_lowered():
     thin = mesh.report["thin_parts"]
     assert thin["probes"] > 0 and thin["least_bound"] < RADIUS / 2
     assert "radius bound was lowered" in mesh.report["statement"]
+    assert "input's topology (1 component, Euler 2): kept; radius bound lowered" in mesh.summary()
     # The rod is in the mesh: vertices all along it, on its surface.
     on_rod = mesh.vertices[np.abs(mesh.vertices[:, 0]) < 0.1]
     assert len(on_rod) and np.allclose(np.linalg.norm(on_rod[:, 1:], axis=1), 0.015, atol=2e-3)
@@ -113,6 +116,7 @@ def test_without_the_second_run_the_lost_topology_is_reported(monkeypatch):
     assert not mesh.complete
     assert "does not have the input's topology" in mesh.stats["stop_reason"]
     assert "thin_parts" not in mesh.report
+    assert "input's topology (1 component, Euler 2): NOT kept" in mesh.summary()
 
 
 def rod_and_leg(rod: float = 0.03, n: int = 160) -> tuple[np.ndarray, np.ndarray]:

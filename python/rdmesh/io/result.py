@@ -280,6 +280,9 @@ def _summary(mesh: SurfaceMesh) -> str:
             else f"holes: {holes['rims']} NOT kept (rims not protected): closed by the "
             f"{holes['closed_by']}"
         )
+    line = _input_topology_line(mesh.report)
+    if line:
+        lines.append(line)
     if not mesh.complete:
         lines.append("INCOMPLETE: " + str(mesh.stats.get("stop_reason", "budget")))
     if len(mesh.unresolved):
@@ -303,3 +306,22 @@ def _summary(mesh: SurfaceMesh) -> str:
             + (f" (failed: {', '.join(failed)})" if failed else "")
         )
     return "\n".join(lines)
+
+
+def _input_topology_line(report: dict | None) -> str:
+    """The summary's line on a closed input's topology, if it is known."""
+    topo = ((report or {}).get("input") or {}).get("topology")
+    if topo is None:
+        return ""
+    inp = topo["input"]
+    n = inp["components"]
+    line = f"input's topology ({n} component{'s' * (n != 1)}, Euler {_short(inp['euler'])}): "
+    line += "kept" if topo["kept"] else "NOT kept"
+    if (report or {}).get("thin_parts") is not None:
+        thin = report["thin_parts"]
+        line += f"; radius bound lowered to {thin['least_bound']:.3g} near its thin parts"
+    return line
+
+
+def _short(values: list) -> str:
+    return ", ".join(str(v) for v in values[:6]) + (", ..." if len(values) > 6 else "")

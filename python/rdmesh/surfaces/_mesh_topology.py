@@ -31,6 +31,15 @@ def component_euler(
     return nv - ne + np.bincount(face_label, minlength=count)
 
 
+def oriented(faces: np.ndarray, n_vertices: int) -> bool:
+    """Whether no two faces run along an edge the same way (each edge of a
+    closed, consistently oriented surface is run once each way)."""
+    faces = np.asarray(faces, np.int64)
+    key = (faces * np.int64(n_vertices) + np.roll(faces, -1, axis=1)).reshape(-1)
+    key.sort()
+    return bool(len(key) == 0 or np.all(key[1:] != key[:-1]))
+
+
 def topology_against_input(
     surface, vertices: np.ndarray, faces: np.ndarray, euler: list | None = None
 ) -> dict | None:
@@ -44,6 +53,9 @@ def topology_against_input(
     dict or None
         ``kept``; ``input`` and ``output``: the components and their Euler
         characteristics (the output's by the input component each covers);
+        ``oriented`` (:func:`oriented`: with a closed manifold output that
+        keeps the input's topology, each output component is then
+        homeomorphic to the input component it covers);
         where ``kept`` is False, ``regions`` (the input components whose
         topology differs, as the output's vertices on them) and a
         ``statement``.
@@ -77,6 +89,7 @@ def topology_against_input(
         "kept": not wrong.any(),
         "input": {"components": n_in, "euler": in_chi.tolist()},
         "output": {"components": len(out_chi), "euler": chi.tolist()},
+        "oriented": oriented(faces, len(vertices)),
     }
     if out["kept"]:
         return out
