@@ -253,7 +253,10 @@ def _add_run_options(p: argparse.ArgumentParser, method: bool) -> None:
         "--distance",
         type=_positive_float,
         metavar="D",
-        help="largest centre-to-surface distance (default off)",
+        help="largest centre-to-surface distance (default off)"
+        if method
+        else "largest centre-to-surface distance; the input and the output are measured "
+        "against each other at it (default off: measured at the radius bound)",
     )
     if method:
         p.add_argument(
