@@ -53,9 +53,9 @@ def topology_against_input(
     dict or None
         ``kept``; ``input`` and ``output``: the components and their Euler
         characteristics (the output's by the input component each covers);
-        ``oriented`` (:func:`oriented`: with a closed manifold output that
-        keeps the input's topology, each output component is then
-        homeomorphic to the input component it covers);
+        ``oriented`` (:func:`oriented`, None where not ``kept``: with a
+        closed manifold output that keeps the input's topology, each output
+        component is then homeomorphic to the input component it covers);
         where ``kept`` is False, ``regions`` (the input components whose
         topology differs, as the output's vertices on them) and a
         ``statement``.
@@ -85,13 +85,14 @@ def topology_against_input(
     chi = np.bincount(owner, out_chi, minlength=n_in).astype(np.int64)
     wrong = (covers != 1) | (chi != in_chi)
     wrong[np.unique(in_c[spans[out_c]])] = True
+    kept = not wrong.any()
     out = {
-        "kept": not wrong.any(),
+        "kept": kept,
         "input": {"components": n_in, "euler": in_chi.tolist()},
         "output": {"components": len(out_chi), "euler": chi.tolist()},
-        "oriented": oriented(faces, len(vertices)),
+        "oriented": oriented(faces, len(vertices)) if kept else None,
     }
-    if out["kept"]:
+    if kept:
         return out
     where = regions(vertices[used][wrong[on]], REGION_LINK * surface.radius)
     bad = np.flatnonzero(wrong)
