@@ -61,7 +61,13 @@ def mesh_surface(
         crossing.
     distance_bound : float, optional
         Largest distance between a facet's circumcentre and its surface
-        centre (an approximation bound); None disables it.
+        centre (an approximation bound); None disables it. A
+        :class:`MeshSurface` is also measured against the output both ways
+        at this bound, or without one at the radius bound, and where a run
+        loses the topology of an input that does not intersect itself, the
+        run is made once more with the radius bound lowered near the input's
+        thin parts (``report["input"]["topology"]``,
+        ``report["thin_parts"]``; incomplete if it is still lost).
     topology : {"manifold", "manifold-with-boundary", "non-manifold"}, optional
         As CGAL's Manifold_tag, Manifold_with_boundary_tag and
         Non_manifold_tag: what the final refinement stage repairs. Default
