@@ -64,3 +64,26 @@ def distinct_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.n
     start = np.flatnonzero(first)
     del first
     return keys[start], np.diff(start, append=len(keys))
+
+
+def component_euler(
+    faces: np.ndarray,
+    face_label: np.ndarray,
+    count: int,
+    n_vertices: int,
+    vertex_label: np.ndarray | None = None,
+    edge_key: np.ndarray | None = None,
+) -> np.ndarray:
+    """``(count,)`` ``V - E + F`` of the faces of each label (components, or
+    components of a superset of ``faces``). A vertex or an edge counts in the
+    label of any face that has it. ``vertex_label`` and ``edge_key``
+    (:func:`distinct_edges`) are found when not given."""
+    faces = np.asarray(faces, np.int64)
+    if vertex_label is None:
+        vertex_label = np.full(n_vertices, -1, np.int64)
+        vertex_label[faces.reshape(-1)] = np.repeat(face_label, 3)
+    if edge_key is None:
+        edge_key, _ = distinct_edges(faces, n_vertices)
+    nv = np.bincount(vertex_label[vertex_label >= 0], minlength=count)
+    ne = np.bincount(vertex_label[edge_key // n_vertices], minlength=count)
+    return nv - ne + np.bincount(face_label, minlength=count)

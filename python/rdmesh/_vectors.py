@@ -124,3 +124,20 @@ def row_keys(rows: np.ndarray) -> np.ndarray | None:
         keys <<= bits
         keys |= rows[:, j]
     return keys
+
+
+def ring_directions(n: np.ndarray, sign: float, tilts, ring: int = 6) -> np.ndarray:
+    """``sign * n`` and, for each tilt in ``tilts`` (radians), ``ring``
+    directions tilted that far from it, evenly around it: ``(k, 1 + ring
+    len(tilts), 3)`` for unit ``(k, 3)`` ``n``. The frame around the axis comes
+    from ``n`` (the same for either sign)."""
+    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    t1 = np.cross(n, helper)
+    t1 /= np.linalg.norm(t1, axis=1)[:, None]
+    t2 = np.cross(n, t1)
+    out = [sign * n]
+    for tilt in tilts:
+        for phi in np.arange(ring) * np.pi / (ring / 2):
+            around = np.cos(phi) * t1 + np.sin(phi) * t2
+            out.append(sign * np.cos(tilt) * n + np.sin(tilt) * around)
+    return np.stack(out, axis=1)

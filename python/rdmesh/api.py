@@ -317,20 +317,14 @@ def _kept_or_filled(mesher: Mesher):
     in the time left, if any (else the first run's mesh, closed by its caps)."""
     mesh = mesher.run()
     holes = (mesh.report or {}).get("holes")
-    limit = mesher.budget.time_limit
-    if holes is None or holes["cut"] or (limit is not None and mesh.stats["seconds"] >= limit):
+    if holes is None or holes["cut"] or _out_of_time(mesher, mesh):
         return mesh
-    if limit is not None:  # the two runs share the time limit
-        mesher.budget = Budget(mesher.budget.max_vertices, limit - mesh.stats["seconds"])
     log.warning(
         "%s: the rims of its %d holes could not be protected (%s); meshing it again with "
         "the holes filled (holes='fill')", mesher.surface.name, holes["rims"],
         mesh.stats.get("stop_reason", ""),
     )  # fmt: skip
-    restart(mesher, filled(mesher.surface))
-    again = mesher.run()
-    # Both runs' time: the first (holes kept, failed) and this one.
-    again.stats["seconds"] += mesh.stats["seconds"]
+    again = _run_again(mesher, mesh, filled(mesher.surface))
     again.report["holes"] = {**holes, "closed_by": "winding number", "filled_again": True,
                              "first_run_seconds": mesh.stats["seconds"]}  # fmt: skip
     again.report["statement"] += (
@@ -340,28 +334,41 @@ def _kept_or_filled(mesher: Mesher):
     return again
 
 
+def _out_of_time(mesher: Mesher, first: SurfaceMesh) -> bool:
+    """Whether the first run used up the time limit (no time for another)."""
+    limit = mesher.budget.time_limit
+    return limit is not None and first.stats["seconds"] >= limit
+
+
+def _run_again(mesher: Mesher, first: SurfaceMesh, surface: ImplicitSurface) -> SurfaceMesh:
+    """The mesher's run from scratch on ``surface`` in the time the ``first``
+    run left; its ``seconds`` are both runs'."""
+    limit = mesher.budget.time_limit
+    if limit is not None:  # the two runs share the time limit
+        mesher.budget = Budget(mesher.budget.max_vertices, limit - first.stats["seconds"])
+    restart(mesher, surface)
+    again = mesher.run()
+    again.stats["seconds"] += first.stats["seconds"]
+    return again
+
+
 def _thin_parts_kept(mesher: Mesher, mesh: SurfaceMesh) -> SurfaceMesh:
     """``mesh``; or, where it lost the topology of a closed input mesh and the
     input has parts thinner than the radius bound, the run again with the bound
     lowered near them (:mod:`rdmesh.surfaces._mesh_thin`) in the time left."""
     topo = ((mesh.report or {}).get("input") or {}).get("topology")
     r = mesher.criteria.radius_bound
-    limit = mesher.budget.time_limit
     if topo is None or topo["kept"] or not isinstance(r, float) or mesher.criteria.local_bound:
         return mesh
-    if limit is not None and mesh.stats["seconds"] >= limit:
+    if _out_of_time(mesher, mesh):
         return mesh
     thin = thin_parts(mesher.surface, r, THIN_FLOOR * r)
     if thin is None or thin.vertices_asked() > THIN_GROWTH * len(mesh.vertices):
         return mesh
-    if limit is not None:  # the two runs share the time limit
-        mesher.budget = Budget(mesher.budget.max_vertices, limit - mesh.stats["seconds"])
     said = thin.report(REGION_LINK * mesher.surface.radius)
     log.warning("%s: %s; meshing it again", mesher.surface.name, said["statement"])
     mesher.criteria = replace(mesher.criteria, local_bound=thin.sizing)
-    restart(mesher, mesher.surface)
-    again = mesher.run()
-    again.stats["seconds"] += mesh.stats["seconds"]
+    again = _run_again(mesher, mesh, mesher.surface)
     again.report["thin_parts"] = {**said, "first_run_seconds": mesh.stats["seconds"]}
     again.report["statement"] += f" The input: {said['statement']}."
     return again

@@ -85,9 +85,13 @@ class FacetCriteria:
         """The radius bound at ``(k, 3)`` centres, or None when there is none."""
         if self.radius_bound is None:
             return None
+        psi = self._user_sizing(centres)
+        return psi if self.local_bound is None else np.minimum(psi, self.local_bound(centres))
+
+    def _user_sizing(self, centres: np.ndarray) -> np.ndarray:
+        """The radius bound (a number or the user's field, checked) at ``centres``."""
         if not callable(self.radius_bound):
-            psi = np.full(len(centres), self.radius_bound)
-            return psi if self.local_bound is None else np.minimum(psi, self.local_bound(centres))
+            return np.full(len(centres), self.radius_bound)
         try:
             psi = np.asarray(self.radius_bound(centres), dtype=np.float64)
         except Exception as exc:  # noqa: BLE001 - user code

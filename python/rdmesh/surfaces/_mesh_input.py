@@ -239,12 +239,26 @@ def fold_edges(f: np.ndarray, normals: np.ndarray) -> np.ndarray:
     return folded
 
 
+def _directed(f: np.ndarray) -> tuple[np.ndarray, int]:
+    """The faces' directed edges ``(3m, 2)`` and a key base above every vertex id."""
+    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]).astype(np.int64)
+    return directed, int(directed.max(initial=-1)) + 1
+
+
+def _once(directed: np.ndarray, n: int) -> bool:
+    key = np.sort(directed[:, 0] * n + directed[:, 1])
+    return not np.any(key[1:] == key[:-1])
+
+
+def directed_once(f: np.ndarray) -> bool:
+    """No edge traversed twice in the same direction (consistently oriented)."""
+    return _once(*_directed(f))
+
+
 def is_closed_oriented(f: np.ndarray) -> bool:
     """Every edge in exactly two faces, traversed once in each direction."""
-    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]).astype(np.int64)
-    n = int(directed.max()) + 1
-    key = np.sort(directed[:, 0] * n + directed[:, 1])
-    if np.any(key[1:] == key[:-1]):
+    directed, n = _directed(f)
+    if not _once(directed, n):
         return False
     pair = np.sort(directed, axis=1)
     key = np.sort(pair[:, 0] * n + pair[:, 1])

@@ -13,10 +13,10 @@ from functools import cached_property
 
 import numpy as np
 
-from .._mesh_components import components
+from .._mesh_components import component_euler, components
 from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
-from ._mesh_topology import component_euler, topology_against_input
+from ._mesh_topology import topology_against_input
 
 log = logging.getLogger("rdmesh")
 

@@ -25,7 +25,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .._regions import describe_regions, regions
-from .._vectors import unit_rows
+from .._vectors import ring_directions, unit_rows
+from ._mesh_input import area_vectors
 
 #: Probes: one input vertex per cell of this many radius bounds.
 PROBE_CELL = 0.25
@@ -97,10 +98,8 @@ def thin_parts(surface, radius_bound: float, floor: float) -> ThinParts | None:
     against ``radius_bound``, with bounds at least ``floor``; None where there
     are none."""
     v, f = surface.vertices, surface.faces[: surface.input_face_count]
-    normal = np.zeros_like(v)
-    area = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    for k in range(3):
-        np.add.at(normal, f[:, k], area)
+    normal = np.zeros_like(v)  # area-weighted vertex normals
+    np.add.at(normal, f.reshape(-1), np.repeat(area_vectors(v, f), 3, axis=0))
     used = np.flatnonzero(np.linalg.norm(normal, axis=1) > 0)
     cell = np.floor(v[used] / (PROBE_CELL * radius_bound)).astype(np.int64)
     cell -= cell.min(axis=0)
@@ -111,18 +110,18 @@ def thin_parts(surface, radius_bound: float, floor: float) -> ThinParts | None:
     p, n = v[probe], unit_rows(normal[probe])
     length = np.full(len(p), np.inf)
     for sign in (1.0, -1.0):
-        length = np.minimum(length, _median_reach(surface, p, sign * n, radius_bound))
+        length = np.minimum(length, _median_reach(surface, p, n, sign, radius_bound))
     thin = length < radius_bound
     if not thin.any():
         return None
     return ThinParts(p[thin], np.maximum(floor, SHARE * length[thin]), radius_bound)
 
 
-def _median_reach(surface, p: np.ndarray, axis: np.ndarray, reach: float) -> np.ndarray:
-    """The median, over the rays in a cone about ``axis`` from each of ``p``, of
-    the distance to the first face hit past ``p``'s own (``reach`` where none is
-    hit within it)."""
-    dirs = _cone(axis)  # (rays, n, 3)
+def _median_reach(surface, p: np.ndarray, n: np.ndarray, sign: float, reach: float):
+    """The median, over the rays in a cone about ``sign * n`` from each of ``p``,
+    of the distance to the first face hit past ``p``'s own (``reach`` where none
+    is hit within it)."""
+    dirs = ring_directions(n, sign, (np.radians(CONE),), RAYS).transpose(1, 0, 2)
     start = p[None] + 1e-9 * reach * dirs
     seg = np.stack([start, p[None] + reach * dirs], axis=2).reshape(-1, 2, 3)
     hit, t, _ = surface._core.segment_hits(np.ascontiguousarray(seg))
@@ -130,15 +129,3 @@ def _median_reach(surface, p: np.ndarray, axis: np.ndarray, reach: float) -> np.
     ok = np.isfinite(t) & (t > OWN_FACE)  # not the probe's own faces
     np.minimum.at(first, hit[ok], t[ok])
     return np.median(first.reshape(len(dirs), len(p)), axis=0) * reach
-
-
-def _cone(axis: np.ndarray) -> np.ndarray:
-    """``(1 + RAYS, n, 3)`` unit directions: each axis, and RAYS around it at CONE."""
-    helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    u = unit_rows(np.cross(axis, helper))
-    w = np.cross(axis, u)
-    c, s = np.cos(np.radians(CONE)), np.sin(np.radians(CONE))
-    out = [axis]
-    for a in np.linspace(0.0, 2 * np.pi, RAYS, endpoint=False):
-        out.append(c * axis + s * (np.cos(a) * u + np.sin(a) * w))
-    return np.stack(out)

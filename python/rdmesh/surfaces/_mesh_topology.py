@@ -12,32 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._mesh_components import distinct_edges, labelled_components
+from .._mesh_components import component_euler, labelled_components
 from .._regions import describe_regions, regions
 from .._tol import REGION_LINK
-
-
-def component_euler(
-    faces: np.ndarray, face_label: np.ndarray, count: int, n_vertices: int
-) -> np.ndarray:
-    """``(count,)`` ``V - E + F`` of the faces of each label (components, or
-    components of a superset of ``faces``)."""
-    faces = np.asarray(faces, np.int64)
-    vertex_label = np.full(n_vertices, -1, np.int64)
-    vertex_label[faces.reshape(-1)] = np.repeat(face_label, 3)
-    nv = np.bincount(vertex_label[vertex_label >= 0], minlength=count)
-    key, _ = distinct_edges(faces, n_vertices)
-    ne = np.bincount(vertex_label[key // n_vertices], minlength=count)
-    return nv - ne + np.bincount(face_label, minlength=count)
-
-
-def oriented(faces: np.ndarray, n_vertices: int) -> bool:
-    """Whether no two faces run along an edge the same way (each edge of a
-    closed, consistently oriented surface is run once each way)."""
-    faces = np.asarray(faces, np.int64)
-    key = (faces * np.int64(n_vertices) + np.roll(faces, -1, axis=1)).reshape(-1)
-    key.sort()
-    return bool(len(key) == 0 or np.all(key[1:] != key[:-1]))
+from ._mesh_input import directed_once
 
 
 def topology_against_input(
@@ -53,7 +31,7 @@ def topology_against_input(
     dict or None
         ``kept``; ``input`` and ``output``: the components and their Euler
         characteristics (the output's by the input component each covers);
-        ``oriented`` (:func:`oriented`, None where not ``kept``: with a
+        ``oriented`` (no edge run twice the same way, None where not ``kept``: with a
         closed manifold output that keeps the input's topology, each output
         component is then homeomorphic to the input component it covers);
         where ``kept`` is False, ``regions`` (the input components whose
@@ -90,7 +68,7 @@ def topology_against_input(
         "kept": kept,
         "input": {"components": n_in, "euler": in_chi.tolist()},
         "output": {"components": len(out_chi), "euler": chi.tolist()},
-        "oriented": oriented(faces, len(vertices)) if kept else None,
+        "oriented": directed_once(faces) if kept else None,
     }
     if kept:
         return out

@@ -14,7 +14,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .. import core
-from .._mesh_components import distinct_edges, labelled_components
+from .._mesh_components import component_euler, distinct_edges, labelled_components
 
 
 @dataclass
@@ -141,13 +141,10 @@ def component_topology(faces: np.ndarray, n_vertices: int) -> tuple[list[int], l
     count, face_label, vertex_label = labelled_components(faces, n_vertices)
     if count == 0:
         return [], []
-    # A vertex or an edge lies in the component of any face that has it.
-    nf = np.bincount(face_label, minlength=count)
-    del face_label
-    nv = np.bincount(vertex_label[vertex_label >= 0], minlength=count)
     edge_key, edge_count = distinct_edges(faces, n_vertices)
-    ne = np.bincount(vertex_label[edge_key // n_vertices], minlength=count)
-    chi = [int(x) for x in nv - ne + nf]
+    euler = component_euler(faces, face_label, count, n_vertices, vertex_label, edge_key)
+    del face_label
+    chi = [int(x) for x in euler]
     # Boundary loops: components of the graph of edges in one face.
     key = edge_key[edge_count == 1]
     del edge_key, edge_count

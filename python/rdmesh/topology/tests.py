@@ -51,7 +51,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .._tol import SHOT_ATOL, SHOT_OFFSET, SILHOUETTE_SLACK
-from .._vectors import unit_rows
+from .._vectors import ring_directions, unit_rows
 from ..sampling.probes import Probes
 from ..sampling.roots import crossings_along_segments
 from .complex import largest_incident, marked
@@ -235,19 +235,9 @@ def shoot_from(surface, vertices, ids, tree=None):
 
 def shot_directions(n: np.ndarray) -> np.ndarray:
     """Directions at 0, 30 and 60 degrees around -n and +n, ``(k, 26, 3)``."""
-    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
-    t1 = np.cross(n, helper)
-    t1 /= np.linalg.norm(t1, axis=1)[:, None]
-    t2 = np.cross(n, t1)
-    out = []
-    for sgn in (-1.0, 1.0):
-        out.append(sgn * n)
-        for tilt in (np.pi / 6, np.pi / 3):
-            for phi in np.arange(6) * np.pi / 3:
-                out.append(
-                    sgn * np.cos(tilt) * n + np.sin(tilt) * (np.cos(phi) * t1 + np.sin(phi) * t2)
-                )
-    return np.stack(out, axis=1)
+    tilts = (np.pi / 6, np.pi / 3)
+    back, front = ring_directions(n, -1.0, tilts), ring_directions(n, 1.0, tilts)
+    return np.concatenate([back, front], axis=1)
 
 
 def silhouette_test(
